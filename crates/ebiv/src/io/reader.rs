@@ -1,0 +1,140 @@
+//! The streaming reader every format is read through.
+
+use super::{DecodeReport, FormatReader, Metadata};
+use crate::error::Result;
+use crate::event::EventBuffer;
+
+/// A recording decoded into memory.
+#[derive(Debug, Clone)]
+pub struct Recording {
+    /// All events (and triggers) in file order.
+    pub events: EventBuffer,
+    /// What the file says about itself.
+    pub metadata: Metadata,
+    /// What was dropped or skipped while decoding.
+    pub report: DecodeReport,
+}
+
+/// A streaming event reader: batches of bounded size in file order, the file's metadata, and
+/// a running report of everything dropped. Obtain one with [`crate::io::open`].
+pub struct EventReader {
+    inner: Box<dyn FormatReader>,
+    apply_metavision_shift: bool,
+    shift_us: i64,
+    last_t: Option<i64>,
+    own: DecodeReport,
+    /// Events decoded past a seek target, handed out by the next `read_batch`.
+    pending: Option<EventBuffer>,
+    metadata: Metadata,
+}
+
+impl EventReader {
+    pub(crate) fn new(inner: Box<dyn FormatReader>, apply_metavision_shift: bool) -> Self {
+        let metadata = inner.metadata().clone();
+        EventReader {
+            inner,
+            apply_metavision_shift,
+            shift_us: 0,
+            last_t: None,
+            own: DecodeReport::default(),
+            pending: None,
+            metadata,
+        }
+    }
+
+    /// What the file says about itself (format, geometry, header).
+    pub fn metadata(&self) -> &Metadata {
+        &self.metadata
+    }
+
+    /// What was dropped or skipped so far; complete once the reader is exhausted.
+    pub fn report(&self) -> DecodeReport {
+        self.own.merged_with(self.inner.report())
+    }
+
+    /// Decode the next batch into `out` (cleared first). Returns `false` when the file is
+    /// exhausted; a batch may hold triggers but no events.
+    pub fn read_batch(&mut self, out: &mut EventBuffer) -> Result<bool> {
+        out.clear();
+        if let Some(pending) = self.pending.take() {
+            *out = pending;
+            return Ok(true);
+        }
+        loop {
+            if !self.inner.next_batch(out)? {
+                return Ok(false);
+            }
+            self.after_decode(out);
+            if !out.is_empty() || !out.triggers.is_empty() {
+                return Ok(true);
+            }
+        }
+    }
+
+    fn after_decode(&mut self, out: &mut EventBuffer) {
+        if self.apply_metavision_shift && self.shift_us == 0 {
+            if let Some(shift) = self.inner.metavision_time_shift() {
+                self.shift_us = shift;
+                self.metadata.time_shift_us = shift;
+            }
+        }
+        if self.shift_us != 0 {
+            out.t.iter_mut().for_each(|t| *t -= self.shift_us);
+            out.triggers.iter_mut().for_each(|tr| tr.t -= self.shift_us);
+        }
+        let mut last = self.last_t.unwrap_or(i64::MIN);
+        let mut regressions = 0u64;
+        for &t in &out.t {
+            regressions += (t < last) as u64;
+            last = t;
+        }
+        if !out.is_empty() {
+            self.last_t = Some(last);
+        }
+        self.own.time_regressions += regressions;
+        self.own.events += out.len() as u64;
+        self.own.triggers += out.triggers.len() as u64;
+    }
+
+    /// Skip to the first event at or after `t_us` (camera time, after any shift): jumps by the
+    /// file's index where the format has one, and otherwise decodes and discards quickly.
+    pub fn skip_to(&mut self, t_us: i64) -> Result<()> {
+        if self.pending.is_none() {
+            self.inner.seek_near(t_us + self.shift_us)?;
+        }
+        let mut batch = EventBuffer::new();
+        while self.read_batch(&mut batch)? {
+            let first = batch.t.iter().position(|&t| t >= t_us);
+            let discarded = first.unwrap_or(batch.len());
+            self.own.events -= discarded as u64;
+            if let Some(first) = first {
+                let mut rest = EventBuffer::with_capacity(batch.len() - first);
+                for i in first..batch.len() {
+                    rest.push(batch.t[i], batch.x[i], batch.y[i], batch.p[i]);
+                }
+                rest.triggers = batch
+                    .triggers
+                    .into_iter()
+                    .filter(|tr| tr.t >= t_us)
+                    .collect();
+                self.pending = Some(rest);
+                return Ok(());
+            }
+        }
+        Ok(())
+    }
+
+    /// Decode everything that is left into memory.
+    pub fn read_all(mut self) -> Result<Recording> {
+        let mut events = EventBuffer::new();
+        let mut batch = EventBuffer::new();
+        while self.read_batch(&mut batch)? {
+            events.extend_from(&batch);
+        }
+        Ok(Recording {
+            events,
+            report: self.report(),
+            metadata: self.metadata,
+        })
+    }
+}

@@ -1,0 +1,17 @@
+//! `ebiv` — event-based imaging velocimetry.
+//!
+//! Measures fluid flows with event cameras, after Willert & Klinner, "Event-based imaging
+//! velocimetry: an assessment of event-based cameras for the measurement of fluid flows",
+//! Exp. Fluids 63:101 (2022). This crate holds all the science; the `ebiv` binary in
+//! `ebiv-cli` only parses options and reports progress.
+//!
+//! Layers (lowest first): data types ([`event`]), file input/output ([`io`]), figures
+//! ([`render`]).
+
+pub mod error;
+pub mod event;
+pub mod io;
+pub mod render;
+
+pub use error::{Error, Result};
+pub use event::{Event, EventBuffer, Geometry, Polarity, PolaritySelection, Trigger};
