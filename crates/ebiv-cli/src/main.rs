@@ -1,1 +1,55 @@
-fn main() {}
+//! `ebiv`: event-based imaging velocimetry from the command line.
+//!
+//! Times and durations are typed with units: `10ms`, `250us`, `1.5s` (a bare number is µs).
+//! Coordinates are image pixels, x to the right, y down.
+
+mod cmd;
+mod input;
+mod progress;
+mod units;
+
+use clap::{Parser, Subcommand};
+use std::process::ExitCode;
+
+/// Event-based imaging velocimetry: read event-camera recordings, look at them, convert them.
+///
+/// Times and durations take units (10ms, 250us, 1.5s; a bare number is µs). Pixel
+/// coordinates are image coordinates: x to the right, y down, origin top-left.
+#[derive(Debug, Parser)]
+#[command(name = "ebiv", version, about, long_about)]
+struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Debug, Subcommand)]
+enum Command {
+    /// Run the built-in example: simulate, write, read back, draw.
+    Demo(cmd::demo::DemoArgs),
+    /// Describe a recording: format, sensor, counts, time range, rates, triggers, warnings.
+    Info(cmd::info::InfoArgs),
+    /// Convert a recording to EVT 3.0 RAW, CSV, NPY or NPZ, optionally cut and cropped.
+    Convert(cmd::convert::ConvertArgs),
+    /// Draw a time-coded event image or an event-rate map as PNG.
+    Render(cmd::render::RenderArgs),
+    /// Measure throughput on this machine.
+    Bench(cmd::bench::BenchArgs),
+}
+
+fn main() -> ExitCode {
+    let cli = Cli::parse();
+    let result = match &cli.command {
+        Command::Demo(a) => cmd::demo::run(a),
+        Command::Info(a) => cmd::info::run(a),
+        Command::Convert(a) => cmd::convert::run(a),
+        Command::Render(a) => cmd::render::run(a),
+        Command::Bench(a) => cmd::bench::run(a),
+    };
+    match result {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(e) => {
+            eprintln!("error: {e}");
+            ExitCode::FAILURE
+        }
+    }
+}

@@ -39,6 +39,16 @@ pub enum PolaritySelection {
 }
 
 impl PolaritySelection {
+    /// Parse `pos`/`positive`/`on`, `neg`/`negative`/`off` or `both`.
+    pub fn parse(text: &str) -> Option<Self> {
+        match text.trim().to_ascii_lowercase().as_str() {
+            "pos" | "positive" | "on" | "+" => Some(PolaritySelection::Positive),
+            "neg" | "negative" | "off" | "-" => Some(PolaritySelection::Negative),
+            "both" | "all" => Some(PolaritySelection::Both),
+            _ => None,
+        }
+    }
+
     /// Whether an event of stored polarity `p` (0/1) is selected.
     #[inline]
     pub fn accepts(self, p: u8) -> bool {

@@ -5,13 +5,16 @@
 //! Exp. Fluids 63:101 (2022). This crate holds all the science; the `ebiv` binary in
 //! `ebiv-cli` only parses options and reports progress.
 //!
-//! Layers (lowest first): data types ([`event`]), file input/output ([`io`]), figures
-//! ([`render`]).
+//! Layers (lowest first): data types ([`event`]), file input/output ([`io`]), statistics
+//! ([`stats`]), figures ([`render`]).
 
 pub mod error;
 pub mod event;
+pub mod filter;
 pub mod io;
 pub mod render;
+pub mod sim;
+pub mod stats;
 
 pub use error::{Error, Result};
 pub use event::{Event, EventBuffer, Geometry, Polarity, PolaritySelection, Trigger};

@@ -124,4 +124,8 @@ impl<D: WordDecoder> FormatReader for WordStreamReader<D> {
     fn metavision_time_shift(&self) -> Option<i64> {
         self.decoder.metavision_time_shift()
     }
+
+    fn position(&self) -> Option<u64> {
+        Some(self.offset)
+    }
 }

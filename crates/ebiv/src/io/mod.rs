@@ -131,6 +131,10 @@ pub(crate) trait FormatReader: Send {
     fn seek_near(&mut self, _t_us: i64) -> Result<bool> {
         Ok(false)
     }
+    /// Bytes of the file consumed so far, for progress bars, where the reader knows it.
+    fn position(&self) -> Option<u64> {
+        None
+    }
 }
 
 /// Open the event file at `path` for streaming.
@@ -156,6 +160,25 @@ pub fn open(path: impl AsRef<Path>, options: &ReadOptions) -> Result<EventReader
 /// Decode the whole event file at `path` into memory.
 pub fn read_all(path: impl AsRef<Path>, options: &ReadOptions) -> Result<Recording> {
     open(path, options)?.read_all()
+}
+
+/// Open an event stream held in memory (benchmarks, fuzzing, data received over a network).
+/// `name` is used in messages and its extension breaks ties in format detection.
+pub fn open_memory(
+    bytes: std::sync::Arc<[u8]>,
+    name: &str,
+    options: &ReadOptions,
+) -> Result<EventReader> {
+    let ext = Path::new(name)
+        .extension()
+        .and_then(|e| e.to_str())
+        .map(|e| e.to_ascii_lowercase());
+    open_source(
+        Box::new(std::io::Cursor::new(bytes)),
+        name,
+        ext.as_deref(),
+        options,
+    )
 }
 
 /// Open an event stream from any seekable source. `context` names it in messages and

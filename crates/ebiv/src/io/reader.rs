@@ -52,6 +52,11 @@ impl EventReader {
         self.own.merged_with(self.inner.report())
     }
 
+    /// Bytes of the file consumed so far, where the format's reader tracks it.
+    pub fn position(&self) -> Option<u64> {
+        self.inner.position()
+    }
+
     /// Decode the next batch into `out` (cleared first). Returns `false` when the file is
     /// exhausted; a batch may hold triggers but no events.
     pub fn read_batch(&mut self, out: &mut EventBuffer) -> Result<bool> {

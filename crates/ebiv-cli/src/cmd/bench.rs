@@ -1,0 +1,71 @@
+//! `ebiv bench`: measured throughput on this machine.
+
+use crate::input::InputArgs;
+use clap::{Args, Subcommand};
+use std::path::PathBuf;
+use std::sync::Arc;
+use std::time::Instant;
+
+/// Benchmarks; each prints the best of several runs.
+#[derive(Debug, Args)]
+pub struct BenchArgs {
+    #[command(subcommand)]
+    pub what: BenchWhat,
+}
+
+#[derive(Debug, Subcommand)]
+pub enum BenchWhat {
+    /// Single-thread decode throughput of FILE (read into memory first, so the disk is not
+    /// measured): events per second and bytes per second.
+    Decode(DecodeBenchArgs),
+}
+
+#[derive(Debug, Args)]
+pub struct DecodeBenchArgs {
+    /// The recording to decode.
+    pub file: PathBuf,
+    /// How many times to decode it; the best run is reported.
+    #[arg(long, default_value_t = 5)]
+    pub repeat: u32,
+    #[command(flatten)]
+    pub input: InputArgs,
+}
+
+pub fn run(args: &BenchArgs) -> Result<(), ebiv::Error> {
+    match &args.what {
+        BenchWhat::Decode(a) => decode(a),
+    }
+}
+
+fn decode(args: &DecodeBenchArgs) -> Result<(), ebiv::Error> {
+    let options = args.input.read_options()?;
+    let bytes: Arc<[u8]> = std::fs::read(&args.file)
+        .map_err(|e| ebiv::Error::io(&args.file, e))?
+        .into();
+    let name = args.file.display().to_string();
+    let mut best = f64::INFINITY;
+    let mut events = 0u64;
+    let mut format = None;
+    for _ in 0..args.repeat.max(1) {
+        let start = Instant::now();
+        let mut reader = ebiv::io::open_memory(bytes.clone(), &name, &options)?;
+        let mut batch = ebiv::EventBuffer::new();
+        let mut n = 0u64;
+        while reader.read_batch(&mut batch)? {
+            n += batch.len() as u64;
+        }
+        best = best.min(start.elapsed().as_secs_f64());
+        events = n;
+        format = Some(reader.metadata().format);
+    }
+    let format = format.map(|f| f.to_string()).unwrap_or_default();
+    println!(
+        "decode {name}: {format}, {events} events, {} bytes; best of {}: {:.4} s = {:.1} Mev/s, {:.0} MB/s (single thread)",
+        bytes.len(),
+        args.repeat.max(1),
+        best,
+        events as f64 / best * 1e-6,
+        bytes.len() as f64 / best * 1e-6
+    );
+    Ok(())
+}

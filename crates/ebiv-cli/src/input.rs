@@ -1,0 +1,67 @@
+//! Options shared by every command that reads an event file.
+
+use clap::Args;
+use ebiv::io::{Format, RawEncoding, ReadOptions, TextOptions};
+use ebiv::Geometry;
+
+/// How to read the input file; the defaults suit almost every file.
+#[derive(Debug, Clone, Args)]
+pub struct InputArgs {
+    /// Sensor size WIDTHxHEIGHT, for files that do not state it (old RAW, DAT, text).
+    #[arg(long, value_name = "WxH", value_parser = parse_geometry)]
+    pub geometry: Option<Geometry>,
+    /// RAW encoding for header-less RAW dumps: evt2, evt21 or evt3.
+    #[arg(long, value_name = "ENC", value_parser = parse_encoding)]
+    pub raw_encoding: Option<RawEncoding>,
+    /// Force the input format instead of detecting it: raw, evt2, evt21, evt3, dat, aedat4,
+    /// aedat2, aedat31, es, csv, npy, npz, evt.
+    #[arg(long, value_name = "FMT", value_parser = parse_format)]
+    pub format: Option<Format>,
+    /// Subtract the Metavision SDK time shift, so times match what Metavision tools print.
+    #[arg(long)]
+    pub metavision_time: bool,
+    /// Text input: column order, e.g. `t,x,y,p` or `x,y,p,t` (default: from the header line).
+    #[arg(long, value_name = "COLS")]
+    pub columns: Option<String>,
+    /// Text input: unit of the time column: us, ms, s or ns (default: guessed).
+    #[arg(long, value_name = "UNIT")]
+    pub time_unit: Option<String>,
+}
+
+impl InputArgs {
+    /// The library's read options.
+    pub fn read_options(&self) -> Result<ReadOptions, ebiv::Error> {
+        let text = TextOptions::default();
+        // TEXT-OPTIONS: columns/time unit wiring pending the text reader.
+        let _ = (&self.columns, &self.time_unit);
+        Ok(ReadOptions {
+            geometry: self.geometry,
+            raw_encoding: self.raw_encoding,
+            metavision_time_shift: self.metavision_time,
+            format: self.format,
+            text,
+            ..ReadOptions::default()
+        })
+    }
+}
+
+/// Parse `1280x720`.
+pub fn parse_geometry(s: &str) -> Result<Geometry, String> {
+    let err = || format!("`{s}` is not a size; write WIDTHxHEIGHT, e.g. 1280x720");
+    let (w, h) = s.split_once(['x', 'X']).ok_or_else(err)?;
+    let w: u32 = w.trim().parse().map_err(|_| err())?;
+    let h: u32 = h.trim().parse().map_err(|_| err())?;
+    if w == 0 || h == 0 || w > 65536 || h > 65536 {
+        return Err(format!("`{s}`: width and height must be 1..=65536"));
+    }
+    Ok(Geometry::new(w, h))
+}
+
+fn parse_encoding(s: &str) -> Result<RawEncoding, String> {
+    RawEncoding::parse(s)
+        .ok_or_else(|| format!("`{s}` is not a RAW encoding; use evt2, evt21 or evt3"))
+}
+
+fn parse_format(s: &str) -> Result<Format, String> {
+    Format::parse(s).ok_or_else(|| format!("`{s}` is not a format ebiv reads"))
+}

@@ -1,0 +1,21 @@
+//! Progress bars on standard error, hidden when it is not a terminal.
+
+use indicatif::{ProgressBar, ProgressStyle};
+
+/// A bar over `total` bytes, or a spinner when the total is unknown.
+pub fn bytes_bar(total: Option<u64>, message: &str) -> ProgressBar {
+    let bar = match total {
+        Some(n) => ProgressBar::new(n).with_style(
+            ProgressStyle::with_template(
+                "{msg} [{bar:40}] {bytes}/{total_bytes} ({bytes_per_sec}, {eta})",
+            )
+            .expect("valid template")
+            .progress_chars("=> "),
+        ),
+        None => ProgressBar::new_spinner().with_style(
+            ProgressStyle::with_template("{spinner} {msg} {elapsed}").expect("valid template"),
+        ),
+    };
+    bar.set_message(message.to_string());
+    bar
+}
