@@ -3,7 +3,7 @@
 use crate::input::InputArgs;
 use clap::Args;
 use ebiv::filter::{EventFilter, Roi};
-use ebiv::io::write;
+use ebiv::io::{write, Format, RawEncoding};
 use ebiv::PolaritySelection;
 use std::path::PathBuf;
 
@@ -28,8 +28,15 @@ pub struct ConvertArgs {
     /// Keep positive (ON), negative (OFF) or both polarities.
     #[arg(long, default_value = "both", value_parser = parse_polarity)]
     pub polarity: PolaritySelection,
+    /// RAW output encoding: evt3 (default), evt2 or evt21 (little-endian words).
+    #[arg(long, value_name = "ENC", default_value = "evt3", value_parser = parse_raw_encoding)]
+    pub output_encoding: RawEncoding,
     #[command(flatten)]
     pub input_args: InputArgs,
+}
+
+fn parse_raw_encoding(s: &str) -> Result<RawEncoding, String> {
+    RawEncoding::parse(s).ok_or_else(|| format!("`{s}` is not evt2, evt21 or evt3"))
 }
 
 fn parse_roi(s: &str) -> Result<Roi, String> {
@@ -47,7 +54,10 @@ const STOP_MARGIN_US: i64 = 1_000_000;
 
 pub fn run(args: &ConvertArgs) -> Result<(), ebiv::Error> {
     let options = args.input_args.read_options()?;
-    let out_format = write::format_for_path(&args.output)?;
+    let out_format = match write::format_for_path(&args.output)? {
+        Format::Evt3 => args.output_encoding.format(),
+        other => other,
+    };
     let origin = if args.absolute_time {
         0
     } else {

@@ -189,3 +189,118 @@ impl WordDecoder for Evt3Decoder {
             .map(|th| self.offset_us + ((th as i64 - 1) << 12))
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn decode(words: &[u16], geometry: Geometry) -> (EventBuffer, DecodeReport) {
+        let bytes: Vec<u8> = words.iter().flat_map(|w| w.to_le_bytes()).collect();
+        let mut dec = Evt3Decoder::new(Some(geometry), 0);
+        let (mut out, mut report) = (EventBuffer::new(), DecodeReport::default());
+        // Word by word, as if every word arrived in its own read buffer.
+        for (i, pair) in bytes.chunks(2).enumerate() {
+            dec.decode(pair, 2 * i as u64, &mut out, &mut report);
+        }
+        (out, report)
+    }
+
+    const fn w(kind: u16, payload: u16) -> u16 {
+        kind << 12 | payload
+    }
+
+    #[test]
+    fn vectors_emit_32_pixel_masks() {
+        let g = Geometry::new(1280, 720);
+        let words = [
+            w(TIME_HIGH, 5),
+            w(TIME_LOW, 7),
+            w(ADDR_Y, 100),
+            w(VECT_BASE_X, 1 << 11 | 64), // ON, base 64
+            w(VECT_12, 0b1000_0000_0001), // x 64, 75
+            w(VECT_12, 0b0000_0000_0010), // x 77
+            w(VECT_8, 0b1000_0000),       // x 95
+            w(ADDR_X, 3),                 // one OFF event, base unchanged
+        ];
+        let (out, report) = decode(&words, g);
+        assert_eq!(out.x, vec![64, 75, 77, 95, 3]);
+        assert_eq!(out.p, vec![1, 1, 1, 1, 0]);
+        assert!(out.t.iter().all(|&t| t == 5 * 4096 + 7));
+        assert!(out.y.iter().all(|&y| y == 100));
+        assert!(!report.has_problems());
+    }
+
+    #[test]
+    fn bad_vectors_and_pixels_are_counted_not_emitted() {
+        let g = Geometry::new(100, 50);
+        let words = [
+            w(VECT_12, 0xFFF), // before any time base
+            w(TIME_HIGH, 1),
+            w(ADDR_Y, 10),
+            w(VECT_12, 0b11), // no vector base yet
+            w(VECT_BASE_X, 96),
+            w(VECT_8, 0b1111_1111), // x 96..103: 4 beyond the width
+            w(ADDR_Y, 60),          // beyond the height
+            w(ADDR_X, 1),
+            w(0x9, 0), // unused type
+        ];
+        let (out, report) = decode(&words, g);
+        assert_eq!(out.x, vec![96, 97, 98, 99]);
+        assert_eq!(report.before_time_base, 12);
+        assert_eq!(report.malformed, 2);
+        assert_eq!(report.out_of_range, 5);
+        assert_eq!(report.unknown_words, 1);
+        assert_eq!(report.warnings.len(), 1);
+    }
+
+    #[test]
+    fn time_low_regressions_pass_through_and_others_are_skipped() {
+        let g = Geometry::new(64, 64);
+        let words = [
+            w(TIME_HIGH, 2),
+            w(ADDR_Y, 1),
+            w(TIME_LOW, 100),
+            w(ADDR_X, 1),
+            w(TIME_LOW, 90),
+            w(ADDR_X, 2),
+            w(OTHERS, 0x14),
+            w(CONTINUED_12, 0xABC),
+            w(CONTINUED_12, 0xDEF),
+            w(CONTINUED_4, 0x3),
+            w(EXT_TRIGGER, 5 << 8 | 1),
+            w(TIME_HIGH, 2), // repeated: keeps TIME_LOW
+            w(ADDR_X, 3),
+            w(TIME_HIGH, 3), // new: low part restarts at 0
+            w(ADDR_X, 4),
+        ];
+        let (out, report) = decode(&words, g);
+        let base = 2 * 4096;
+        assert_eq!(out.t, vec![base + 100, base + 90, base + 90, 3 * 4096]);
+        assert_eq!(report.skipped_other, 4);
+        assert_eq!(
+            out.triggers,
+            vec![Trigger {
+                t: base + 90,
+                channel: 5,
+                value: 1
+            }]
+        );
+    }
+
+    #[test]
+    fn time_high_loop_follows_openeb_threshold() {
+        let g = Geometry::new(64, 64);
+        let words = [
+            w(TIME_HIGH, 4095),
+            w(ADDR_Y, 0),
+            w(ADDR_X, 0),
+            w(TIME_HIGH, 2047), // a drop of 2048: not a loop
+            w(ADDR_X, 0),
+            w(TIME_HIGH, 4000),
+            w(TIME_HIGH, 10), // a drop of 3990: a loop
+            w(ADDR_X, 0),
+        ];
+        let (out, _) = decode(&words, g);
+        assert_eq!(out.t, vec![4095 * 4096, 2047 * 4096, (1 << 24) + 10 * 4096]);
+    }
+}

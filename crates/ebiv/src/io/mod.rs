@@ -25,7 +25,7 @@ mod text;
 pub mod write;
 
 pub use detect::{detect_format, Format};
-pub use prophesee_header::{PropheseeHeader, RawEncoding};
+pub use prophesee_header::{Evt21Order, PropheseeHeader, RawEncoding};
 pub use reader::{EventReader, Recording};
 pub use report::DecodeReport;
 pub use text::TextOptions;

@@ -34,18 +34,7 @@ pub struct Evt3Writer {
 impl Evt3Writer {
     /// Start writing `path`; the sensor size is required (and limited to 2048×2048 by the format).
     pub fn create(path: &Path, geometry: Option<Geometry>) -> Result<Self> {
-        let geometry = geometry.ok_or_else(|| {
-            Error::parameter(
-                "geometry",
-                "EVT 3.0 output needs the sensor size; the input does not state it, pass --geometry WIDTHxHEIGHT",
-            )
-        })?;
-        if geometry.width > 2048 || geometry.height > 2048 {
-            return Err(Error::parameter(
-                "geometry",
-                format!("EVT 3.0 stores 11-bit coordinates; {geometry} is larger than 2048x2048"),
-            ));
-        }
+        let geometry = required_geometry(geometry, "EVT 3.0")?;
         Ok(Evt3Writer {
             file: AtomicFile::create(path)?,
             geometry,
@@ -59,22 +48,7 @@ impl Evt3Writer {
 
     fn write_header(&mut self, first_t: i64) -> Result<i64> {
         let origin = first_t.div_euclid(EVT3_LOOP_US) * EVT3_LOOP_US;
-        let g = self.geometry;
-        let mut header = String::new();
-        header.push_str("% evt 3.0\n");
-        header.push_str(&format!(
-            "% format EVT3;height={};width={}\n",
-            g.height, g.width
-        ));
-        header.push_str(&format!("% geometry {}x{}\n", g.width, g.height));
-        header.push_str(&format!(
-            "% plugin_integrator_name ebiv\n% software ebiv {}\n",
-            env!("CARGO_PKG_VERSION")
-        ));
-        if origin != 0 {
-            header.push_str(&format!("% t0 {origin}\n"));
-        }
-        header.push_str("% end\n");
+        let header = header_text("3.0", "EVT3", "", self.geometry, origin);
         let io = self.file.writer().write_all(header.as_bytes());
         io.map_err(|e| self.file.err(e))?;
         // The first TIME_HIGH sets the reader's time base.
@@ -211,4 +185,45 @@ fn checked_rel(t: i64, origin: i64) -> Result<i64> {
         ));
     }
     Ok(rel)
+}
+
+/// The sensor size a RAW writer needs: present, and within the 11-bit coordinates of EVT.
+pub(crate) fn required_geometry(geometry: Option<Geometry>, encoding: &str) -> Result<Geometry> {
+    let geometry = geometry.ok_or_else(|| {
+        Error::parameter(
+            "geometry",
+            format!("{encoding} output needs the sensor size; the input does not state it, pass --geometry WIDTHxHEIGHT"),
+        )
+    })?;
+    if geometry.width > 2048 || geometry.height > 2048 {
+        return Err(Error::parameter(
+            "geometry",
+            format!("{encoding} stores 11-bit coordinates; {geometry} is larger than 2048x2048"),
+        ));
+    }
+    Ok(geometry)
+}
+
+/// A RAW header in the Metavision 4 style (`evt`, `format` with size, `geometry`, `% end`),
+/// plus `t0` when the clock origin is not 0. `format_options` starts with `;` when present.
+pub(crate) fn header_text(
+    evt: &str,
+    name: &str,
+    format_options: &str,
+    g: Geometry,
+    origin: i64,
+) -> String {
+    let mut header = format!(
+        "% evt {evt}\n% format {name};height={};width={}{format_options}\n% geometry {}x{}\n",
+        g.height, g.width, g.width, g.height
+    );
+    header.push_str(&format!(
+        "% plugin_integrator_name ebiv\n% software ebiv {}\n",
+        env!("CARGO_PKG_VERSION")
+    ));
+    if origin != 0 {
+        header.push_str(&format!("% t0 {origin}\n"));
+    }
+    header.push_str("% end\n");
+    header
 }

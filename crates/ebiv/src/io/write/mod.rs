@@ -1,13 +1,15 @@
-//! Event file writers: EVT 3.0 RAW, CSV, NumPy `.npy` and `.npz`.
+//! Event file writers: Prophesee RAW (EVT 3.0, 2.0, 2.1), CSV, NumPy `.npy` and `.npz`.
 //!
 //! Every writer streams: batches go to a temporary file next to the target, which is renamed
 //! into place by [`EventWriter::finish`], so an interrupted run never leaves a half-written
 //! file under the requested name.
 
 mod csv;
+mod evt2;
 mod evt3;
 mod numpy;
 
+pub use evt2::{Evt2Variant, Evt2Writer};
 pub use evt3::Evt3Writer;
 
 use super::Format;
@@ -48,7 +50,8 @@ pub fn format_for_path(path: &Path) -> Result<Format> {
     }
 }
 
-/// Create a writer for `path` in `format` (see [`format_for_path`]). `geometry` is stored
+/// Create a writer for `path` in `format` (see [`format_for_path`]; `.raw` means EVT 3.0,
+/// and [`Format::Evt2`]/[`Format::Evt21`] select the other RAW encodings). `geometry` is stored
 /// where the format has a place for it and is required by EVT 3.0.
 pub fn create(
     path: &Path,
@@ -57,6 +60,12 @@ pub fn create(
 ) -> Result<Box<dyn EventWriter>> {
     match format {
         Format::Evt3 => Ok(Box::new(Evt3Writer::create(path, geometry)?)),
+        Format::Evt2 => Ok(Box::new(Evt2Writer::create(path, geometry, Evt2Variant::Evt2)?)),
+        Format::Evt21 => Ok(Box::new(Evt2Writer::create(
+            path,
+            geometry,
+            Evt2Variant::Evt21(crate::io::Evt21Order::Little),
+        )?)),
         Format::Text => Ok(Box::new(csv::CsvWriter::create(path)?)),
         Format::Npy => Ok(Box::new(numpy::NpyWriter::create(path)?)),
         Format::Npz => Ok(Box::new(numpy::NpzWriter::create(path)?)),
@@ -91,11 +100,6 @@ impl AtomicFile {
     /// The buffered writer.
     pub fn writer(&mut self) -> &mut BufWriter<File> {
         self.writer.as_mut().expect("writer present until commit")
-    }
-
-    /// The final path.
-    pub fn target(&self) -> &Path {
-        &self.target
     }
 
     /// Map an I/O error to one naming the target file.
