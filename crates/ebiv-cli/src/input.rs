@@ -23,17 +23,34 @@ pub struct InputArgs {
     /// Text input: column order, e.g. `t,x,y,p` or `x,y,p,t` (default: from the header line).
     #[arg(long, value_name = "COLS")]
     pub columns: Option<String>,
-    /// Text input: unit of the time column: us, ms, s or ns (default: guessed).
+    /// Text and NumPy input: unit of the time column: us, ms, s or ns (default: from the
+    /// header name, else integers are µs and decimals are seconds).
     #[arg(long, value_name = "UNIT")]
     pub time_unit: Option<String>,
+    /// Text input: field delimiter (`,`, `;`, `tab`, `space`; default: detected).
+    #[arg(long, value_name = "D")]
+    pub delimiter: Option<String>,
+    /// Text input: how polarity is written: 01, pm1 (-1/1), bool (default: any of them).
+    #[arg(long, value_name = "ENC")]
+    pub polarity_values: Option<String>,
 }
 
 impl InputArgs {
     /// The library's read options.
     pub fn read_options(&self) -> Result<ReadOptions, ebiv::Error> {
-        let text = TextOptions::default();
-        // TEXT-OPTIONS: columns/time unit wiring pending the text reader.
-        let _ = (&self.columns, &self.time_unit);
+        let mut text = TextOptions::default();
+        if let Some(cols) = &self.columns {
+            text.columns = Some(TextOptions::parse_columns(cols)?);
+        }
+        if let Some(unit) = &self.time_unit {
+            text.time_unit = TextOptions::parse_time_unit(unit)?;
+        }
+        if let Some(d) = &self.delimiter {
+            text.delimiter = TextOptions::parse_delimiter(d)?;
+        }
+        if let Some(p) = &self.polarity_values {
+            text.polarity = TextOptions::parse_polarity(p)?;
+        }
         Ok(ReadOptions {
             geometry: self.geometry,
             raw_encoding: self.raw_encoding,

@@ -132,7 +132,7 @@ mod tests {
     fn counts_ranges_and_peak_rate() {
         let mut b = EventBuffer::new();
         for i in 0..100 {
-            // 90 events in the first millisecond, 10 spread over the next 9.
+            // 90 events in the first millisecond, 10 more at 1, 2, ... 10 ms.
             let t = if i < 90 { i } else { 1000 * (i - 89) };
             b.push(t, i as u16, 3, (i % 2) as u8);
         }
@@ -142,7 +142,7 @@ mod tests {
         assert_eq!(s.on, 50);
         assert_eq!(s.peak_bin_events, 90);
         assert_eq!(s.x_range, Some((0, 99)));
-        assert_eq!(s.duration_us(), 11_000);
+        assert_eq!(s.duration_us(), 10_000);
         assert!((s.peak_rate() - 90_000.0).abs() < 1e-9);
     }
 }

@@ -28,7 +28,7 @@ pub use detect::{detect_format, Format};
 pub use prophesee_header::{Evt21Order, PropheseeHeader, RawEncoding};
 pub use reader::{EventReader, Recording};
 pub use report::DecodeReport;
-pub use text::TextOptions;
+pub use text::{PolarityEncoding, TextColumn, TextOptions, TimeUnit};
 
 use crate::error::{Error, Result};
 use crate::event::Geometry;

@@ -166,6 +166,7 @@ mod tests {
         let spec = TurntableSpec {
             geometry: Geometry::new(64, 48),
             duration_us: 5_000,
+            density_ppp: 0.03,
             ..Default::default()
         };
         let a = turntable(&spec);

@@ -60,7 +60,11 @@ pub fn create(
 ) -> Result<Box<dyn EventWriter>> {
     match format {
         Format::Evt3 => Ok(Box::new(Evt3Writer::create(path, geometry)?)),
-        Format::Evt2 => Ok(Box::new(Evt2Writer::create(path, geometry, Evt2Variant::Evt2)?)),
+        Format::Evt2 => Ok(Box::new(Evt2Writer::create(
+            path,
+            geometry,
+            Evt2Variant::Evt2,
+        )?)),
         Format::Evt21 => Ok(Box::new(Evt2Writer::create(
             path,
             geometry,

@@ -1,0 +1,169 @@
+//! The `ebiv` binary end to end: what a user types, what they get.
+
+use std::path::PathBuf;
+use std::process::{Command, Output};
+
+fn ebiv(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_ebiv"))
+        .args(args)
+        .output()
+        .expect("run ebiv")
+}
+
+fn data(name: &str) -> Option<PathBuf> {
+    let dir = std::env::var_os("EBIV_TEST_DATA")
+        .map(PathBuf::from)
+        .unwrap_or_else(|| PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../../shared/data"));
+    let path = dir.join(name);
+    if path.is_file() {
+        Some(path)
+    } else {
+        eprintln!(
+            "notice: {} not found (set EBIV_TEST_DATA); skipping",
+            path.display()
+        );
+        None
+    }
+}
+
+fn stdout(o: &Output) -> String {
+    String::from_utf8_lossy(&o.stdout).into_owned()
+}
+
+fn stderr(o: &Output) -> String {
+    String::from_utf8_lossy(&o.stderr).into_owned()
+}
+
+#[test]
+fn info_json_reports_counts_and_header() {
+    let Some(file) = data("prophesee/evt2_sample.raw") else {
+        return;
+    };
+    let out = ebiv(&["info", "--json", file.to_str().unwrap()]);
+    assert!(out.status.success(), "{}", stderr(&out));
+    let v: serde_json::Value = serde_json::from_str(&stdout(&out)).unwrap();
+    assert_eq!(v["stats"]["events"], 539_481);
+    assert_eq!(v["stats"]["on"], 367_855);
+    assert_eq!(v["stats"]["t_min"], 1_317_888);
+    assert_eq!(v["metadata"]["format"], "Evt2");
+    assert_eq!(v["metadata"]["geometry"]["width"], 640);
+    assert_eq!(v["report"]["out_of_range"], 0);
+}
+
+#[test]
+fn info_text_names_format_and_duration() {
+    let Some(file) = data("prophesee/evt3_test_pedestrians.raw") else {
+        return;
+    };
+    let out = ebiv(&["info", file.to_str().unwrap()]);
+    assert!(out.status.success(), "{}", stderr(&out));
+    let text = stdout(&out);
+    assert!(text.contains("Prophesee RAW EVT 3.0"), "{text}");
+    assert!(
+        text.contains("events      5000 (ON 2894, OFF 2106)"),
+        "{text}"
+    );
+    assert!(text.contains("1280x720"), "{text}");
+}
+
+#[test]
+fn convert_to_csv_then_raw_keeps_every_event() {
+    let Some(file) = data("prophesee/evt2_sample.raw") else {
+        return;
+    };
+    let dir = tempfile::tempdir().unwrap();
+    let csv = dir.path().join("cut.csv");
+    let out = ebiv(&[
+        "convert",
+        file.to_str().unwrap(),
+        csv.to_str().unwrap(),
+        "--time-range",
+        "10ms:20ms",
+        "--polarity",
+        "pos",
+    ]);
+    assert!(out.status.success(), "{}", stderr(&out));
+    let text = std::fs::read_to_string(&csv).unwrap();
+    let mut lines = text.lines();
+    assert_eq!(lines.next(), Some("t,x,y,p"));
+    let rows: Vec<Vec<i64>> = lines
+        .map(|l| l.split(',').map(|f| f.parse().unwrap()).collect())
+        .collect();
+    assert!(!rows.is_empty());
+    let first_t = 1_317_888;
+    assert!(rows
+        .iter()
+        .all(|r| r[0] >= first_t + 10_000 && r[0] < first_t + 20_000 && r[3] == 1));
+
+    // The same cut through EVT 3.0 RAW and back gives the same rows.
+    let raw = dir.path().join("cut.raw");
+    let out = ebiv(&[
+        "convert",
+        csv.to_str().unwrap(),
+        raw.to_str().unwrap(),
+        "--geometry",
+        "640x480",
+    ]);
+    assert!(out.status.success(), "{}", stderr(&out));
+    let csv2 = dir.path().join("again.csv");
+    let out = ebiv(&["convert", raw.to_str().unwrap(), csv2.to_str().unwrap()]);
+    assert!(out.status.success(), "{}", stderr(&out));
+    assert_eq!(std::fs::read_to_string(&csv2).unwrap(), text);
+}
+
+#[test]
+fn render_writes_png_images() {
+    let Some(file) = data("prophesee/evt2_sample.raw") else {
+        return;
+    };
+    let dir = tempfile::tempdir().unwrap();
+    for extra in [&["--t0", "25ms", "--dt", "4ms"][..], &["--rate"][..]] {
+        let png = dir.path().join("out.png");
+        let mut args = vec![
+            "render",
+            file.to_str().unwrap(),
+            "-o",
+            png.to_str().unwrap(),
+        ];
+        args.extend_from_slice(extra);
+        let out = ebiv(&args);
+        assert!(out.status.success(), "{}", stderr(&out));
+        let bytes = std::fs::read(&png).unwrap();
+        assert_eq!(&bytes[1..4], b"PNG");
+    }
+}
+
+#[test]
+fn errors_are_one_clear_line_and_a_failure_code() {
+    let dir = tempfile::tempdir().unwrap();
+    let missing = dir.path().join("nope.raw");
+    let out = ebiv(&["info", missing.to_str().unwrap()]);
+    assert!(!out.status.success());
+    let err = stderr(&out);
+    assert!(
+        err.starts_with("error: ") && err.contains("nope.raw"),
+        "{err}"
+    );
+    assert_eq!(err.lines().count(), 1, "{err}");
+
+    let junk = dir.path().join("junk.bin");
+    std::fs::write(&junk, [0xFFu8, 0x00, 0x13, 0x37]).unwrap();
+    let out = ebiv(&["info", junk.to_str().unwrap()]);
+    assert!(!out.status.success());
+    assert!(
+        stderr(&out).contains("unrecognised file format"),
+        "{}",
+        stderr(&out)
+    );
+
+    let out = ebiv(&[
+        "render",
+        junk.to_str().unwrap(),
+        "-o",
+        "x.png",
+        "--dt",
+        "ten",
+    ]);
+    assert!(!out.status.success());
+    assert!(stderr(&out).contains("not a time"), "{}", stderr(&out));
+}
