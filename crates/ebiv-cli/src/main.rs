@@ -6,7 +6,6 @@
 mod cmd;
 mod input;
 mod progress;
-mod units;
 
 use clap::{Parser, Subcommand};
 use std::process::ExitCode;
@@ -32,6 +31,8 @@ enum Command {
     Convert(cmd::convert::ConvertArgs),
     /// Draw a time-coded event image or an event-rate map as PNG.
     Render(cmd::render::RenderArgs),
+    /// Simulate a recording of a known flow through an event-camera model, with ground truth.
+    Simulate(cmd::simulate::SimulateArgs),
     /// Measure throughput on this machine.
     Bench(cmd::bench::BenchArgs),
 }
@@ -43,6 +44,7 @@ fn main() -> ExitCode {
         Command::Info(a) => cmd::info::run(a),
         Command::Convert(a) => cmd::convert::run(a),
         Command::Render(a) => cmd::render::run(a),
+        Command::Simulate(a) => cmd::simulate::run(a),
         Command::Bench(a) => cmd::bench::run(a),
     };
     match result {

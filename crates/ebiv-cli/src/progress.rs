@@ -19,3 +19,14 @@ pub fn bytes_bar(total: Option<u64>, message: &str) -> ProgressBar {
     bar.set_message(message.to_string());
     bar
 }
+
+/// A bar over a fraction of work done, in thousandths.
+pub fn fraction_bar(message: &str) -> ProgressBar {
+    let bar = ProgressBar::new(1000).with_style(
+        ProgressStyle::with_template("{msg} [{bar:40}] {percent}% ({elapsed}, {eta})")
+            .expect("valid template")
+            .progress_chars("=> "),
+    );
+    bar.set_message(message.to_string());
+    bar
+}

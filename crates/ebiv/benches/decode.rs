@@ -1,13 +1,14 @@
 //! Single-thread decode throughput per format (`cargo bench -p ebiv --bench decode`).
 //!
 //! Synthetic streams of 4 M events at the paper's rate (20 events per µs, 1280×720, rows and
-//! columns spread like a seeded flow) are written with ebiv's own writers and decoded from
-//! memory; the real samples of the shared data are added when present.
+//! columns spread like a seeded flow) are written with ebiv's own writers (RAW EVT 3.0, 2.0,
+//! 2.1; AEDAT 4.0 with LZ4 and with ZSTD) and decoded from memory; the real samples of the
+//! shared data are added when present.
 
 use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion, Throughput};
 use ebiv::io::{self, write, Evt21Order, Format, ReadOptions};
 use ebiv::{EventBuffer, Geometry};
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
 const EVENTS: usize = 4_000_000;
@@ -27,16 +28,13 @@ fn synthetic_stream() -> EventBuffer {
     b
 }
 
-fn encode(format: Format, order: Option<Evt21Order>, events: &EventBuffer) -> Arc<[u8]> {
+/// How a synthetic stream is written: a writer for a path and the sensor size.
+type MakeWriter = fn(&Path, Option<Geometry>) -> ebiv::Result<Box<dyn write::EventWriter>>;
+
+fn encode(make: MakeWriter, file_name: &str, events: &EventBuffer) -> Arc<[u8]> {
     let dir = tempfile::tempdir().expect("temp dir");
-    let path = dir.path().join("bench.raw");
-    let g = Some(Geometry::new(1280, 720));
-    let mut w: Box<dyn write::EventWriter> = match order {
-        Some(o) => Box::new(
-            write::Evt2Writer::create(&path, g, write::Evt2Variant::Evt21(o)).expect("writer"),
-        ),
-        None => write::create(&path, format, g).expect("writer"),
-    };
+    let path = dir.path().join(file_name);
+    let mut w = make(&path, Some(Geometry::new(1280, 720))).expect("writer");
     w.write(events).expect("write");
     w.finish().expect("finish");
     std::fs::read(&path).expect("read").into()
@@ -63,16 +61,30 @@ fn bench_decode(c: &mut Criterion) {
     let events = synthetic_stream();
     let mut group = c.benchmark_group("decode");
     group.sample_size(10);
-    let synthetic = [
-        ("evt3", Format::Evt3, None),
-        ("evt2", Format::Evt2, None),
-        ("evt21", Format::Evt21, Some(Evt21Order::Legacy)),
+    let synthetic: [(&str, &str, MakeWriter); 5] = [
+        ("evt3", "bench.raw", |p, g| {
+            write::create(p, Format::Evt3, g)
+        }),
+        ("evt2", "bench.raw", |p, g| {
+            write::create(p, Format::Evt2, g)
+        }),
+        ("evt21", "bench.raw", |p, g| {
+            let variant = write::Evt2Variant::Evt21(Evt21Order::Legacy);
+            Ok(Box::new(write::Evt2Writer::create(p, g, variant)?))
+        }),
+        ("aedat4-lz4", "bench.aedat4", |p, g| {
+            write::create(p, Format::Aedat4, g)
+        }),
+        ("aedat4-zstd", "bench.aedat4", |p, g| {
+            let zstd = write::Aedat4Compression::Zstd;
+            Ok(Box::new(write::Aedat4Writer::create(p, g, zstd)?))
+        }),
     ];
-    for (name, format, order) in synthetic {
-        let bytes = encode(format, order, &events);
+    for (name, file_name, make) in synthetic {
+        let bytes = encode(make, file_name, &events);
         group.throughput(Throughput::Elements(EVENTS as u64));
         group.bench_with_input(BenchmarkId::new("synthetic", name), &bytes, |b, bytes| {
-            b.iter(|| decode_all(bytes, "bench.raw"))
+            b.iter(|| decode_all(bytes, file_name))
         });
     }
     if let Some(dir) = shared_data() {

@@ -10,11 +10,14 @@
 
 pub mod error;
 pub mod event;
+pub mod export;
+pub mod field;
 pub mod filter;
 pub mod io;
 pub mod render;
 pub mod sim;
 pub mod stats;
+pub mod units;
 
 pub use error::{Error, Result};
 pub use event::{Event, EventBuffer, Geometry, Polarity, PolaritySelection, Trigger};

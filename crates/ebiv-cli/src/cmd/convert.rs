@@ -17,7 +17,7 @@ pub struct ConvertArgs {
     pub output: PathBuf,
     /// Keep only START:END (e.g. `10ms:20ms`, either side may be empty), measured from the
     /// first event of the recording (or in camera time with --absolute-time).
-    #[arg(long, value_name = "START:END", value_parser = crate::units::parse_range)]
+    #[arg(long, value_name = "START:END", value_parser = ebiv::units::parse_range)]
     pub time_range: Option<(Option<i64>, Option<i64>)>,
     /// Read --time-range as camera time stamps in µs rather than from the first event.
     #[arg(long)]

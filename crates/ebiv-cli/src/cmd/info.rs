@@ -1,7 +1,7 @@
 //! `ebiv info`: what a recording holds.
 
 use crate::input::InputArgs;
-use crate::units::format_us;
+use ebiv::units::format_us;
 use clap::Args;
 use ebiv::stats::RecordingStats;
 use std::path::PathBuf;

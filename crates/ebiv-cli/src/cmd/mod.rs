@@ -5,6 +5,7 @@ pub mod convert;
 pub mod demo;
 pub mod info;
 pub mod render;
+pub mod simulate;
 
 use crate::progress::bytes_bar;
 use ebiv::io::{EventReader, ReadOptions};

@@ -1,7 +1,7 @@
 //! `ebiv render`: the first picture of a recording.
 
 use crate::input::InputArgs;
-use crate::units::format_us;
+use ebiv::units::format_us;
 use clap::Args;
 use ebiv::render::{save_png, time_coded_image, upscale, EventRateMap};
 use ebiv::{EventBuffer, Geometry, PolaritySelection};
@@ -18,10 +18,10 @@ pub struct RenderArgs {
     pub output: PathBuf,
     /// Centre time of the image, from the first event (e.g. `25ms`); default: the first
     /// event plus DT/2.
-    #[arg(long, value_parser = crate::units::parse_us)]
+    #[arg(long, value_parser = ebiv::units::parse_us)]
     pub t0: Option<i64>,
     /// Length of the interval drawn, centred on T0 (e.g. `10ms`, `500us`).
-    #[arg(long, default_value = "10ms", value_parser = crate::units::parse_us)]
+    #[arg(long, default_value = "10ms", value_parser = ebiv::units::parse_us)]
     pub dt: i64,
     /// Read --t0 as a camera time stamp in µs rather than from the first event.
     #[arg(long)]

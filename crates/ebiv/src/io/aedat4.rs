@@ -31,7 +31,7 @@ use std::io::{Read, Seek, SeekFrom};
 use table::{parse_table, TableEntry};
 
 /// The version line every AEDAT 4.0 file starts with.
-const MAGIC: &[u8; 14] = b"#!AER-DAT4.0\r\n";
+pub(crate) const MAGIC: &[u8; 14] = b"#!AER-DAT4.0\r\n";
 /// Largest IOHeader accepted (real ones are a few KiB of XML).
 const MAX_HEADER_BYTES: u64 = 16 << 20;
 /// Largest compressed packet accepted; larger sizes are taken as corruption.

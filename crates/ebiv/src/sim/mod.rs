@@ -1,9 +1,19 @@
-//! Synthetic recordings with known motion.
+//! Synthetic recordings with known motion: a seeded flow in a light sheet, imaged onto an
+//! event-camera pixel model, with the ground truth (velocity field and particle paths).
 //!
-//! For now this holds a small generator with an ideal event sensor, enough for the built-in
-//! demo and for tests that need particle-like events with a known flow. The full simulator
-//! (flows, light sheet, realistic pixel model) is planned in `docs/sensor-model.md`.
+//! Facts, formulas and the defaults of established simulators are in the project's
+//! `docs/sensor-model.md`. `turntable` is the small ideal-sensor generator of the first demo.
 
+pub mod flow;
+pub mod ode;
+pub mod particles;
+pub mod rng;
+pub mod scenario;
+pub mod scene;
+pub mod sensor;
+pub mod simulation;
+pub mod truth;
 mod turntable;
 
+pub use flow::{Flow, FlowSpec};
 pub use turntable::{turntable, TurntableSpec};

@@ -1,14 +1,17 @@
-//! Event file writers: Prophesee RAW (EVT 3.0, 2.0, 2.1), CSV, NumPy `.npy` and `.npz`.
+//! Event file writers: Prophesee RAW (EVT 3.0, 2.0, 2.1), iniVation AEDAT 4.0 (LZ4, ZSTD or
+//! uncompressed), CSV, NumPy `.npy` and `.npz`.
 //!
 //! Every writer streams: batches go to a temporary file next to the target, which is renamed
 //! into place by [`EventWriter::finish`], so an interrupted run never leaves a half-written
 //! file under the requested name.
 
+pub(crate) mod aedat4;
 mod csv;
 mod evt2;
 mod evt3;
 mod numpy;
 
+pub use aedat4::{Aedat4Compression, Aedat4Writer};
 pub use evt2::{Evt2Variant, Evt2Writer};
 pub use evt3::Evt3Writer;
 
@@ -37,13 +40,14 @@ pub fn format_for_path(path: &Path) -> Result<Format> {
         .unwrap_or_default();
     match ext.as_str() {
         "raw" => Ok(Format::Evt3),
+        "aedat4" => Ok(Format::Aedat4),
         "csv" | "txt" => Ok(Format::Text),
         "npy" => Ok(Format::Npy),
         "npz" => Ok(Format::Npz),
         _ => Err(Error::parameter(
             "output",
             format!(
-                "cannot tell the output format from `{}`; use .raw (EVT 3.0), .csv, .npy or .npz",
+                "cannot tell the output format from `{}`; use .raw (EVT 3.0), .aedat4 (AEDAT 4.0), .csv, .npy or .npz",
                 path.display()
             ),
         )),
@@ -51,8 +55,9 @@ pub fn format_for_path(path: &Path) -> Result<Format> {
 }
 
 /// Create a writer for `path` in `format` (see [`format_for_path`]; `.raw` means EVT 3.0,
-/// and [`Format::Evt2`]/[`Format::Evt21`] select the other RAW encodings). `geometry` is stored
-/// where the format has a place for it and is required by EVT 3.0.
+/// and [`Format::Evt2`]/[`Format::Evt21`] select the other RAW encodings; AEDAT 4.0 is written
+/// with LZ4, use [`Aedat4Writer::create`] for another compression). `geometry` is stored where
+/// the format has a place for it and is required by EVT 2.x, EVT 3.0 and AEDAT 4.0.
 pub fn create(
     path: &Path,
     format: Format,
@@ -70,12 +75,17 @@ pub fn create(
             geometry,
             Evt2Variant::Evt21(crate::io::Evt21Order::Little),
         )?)),
+        Format::Aedat4 => Ok(Box::new(Aedat4Writer::create(
+            path,
+            geometry,
+            Aedat4Compression::Lz4,
+        )?)),
         Format::Text => Ok(Box::new(csv::CsvWriter::create(path)?)),
         Format::Npy => Ok(Box::new(numpy::NpyWriter::create(path)?)),
         Format::Npz => Ok(Box::new(numpy::NpzWriter::create(path)?)),
         other => Err(Error::parameter(
             "output",
-            format!("ebiv does not write {other}; use .raw (EVT 3.0), .csv, .npy or .npz"),
+            format!("ebiv does not write {other}; use .raw (EVT 3.0), .aedat4 (AEDAT 4.0), .csv, .npy or .npz"),
         )),
     }
 }

@@ -1,4 +1,5 @@
-//! Parsing of durations and times as users type them: `10ms`, `250us`, `1.5s`, `42` (µs).
+//! Durations and times as users type them in options and configuration files: `10ms`,
+//! `250us`, `1.5s`, `42` (a bare number is µs).
 
 /// Parse a duration or time into whole microseconds. A bare number is microseconds; the
 /// suffixes `us`/`µs`, `ms`, `s`, `min` are accepted, with an optional sign and decimals.
@@ -77,5 +78,26 @@ mod tests {
         assert_eq!(parse_range(":5ms"), Ok((None, Some(5000))));
         assert!(parse_range("5ms:1ms").is_err());
         assert!(parse_range("5ms").is_err());
+    }
+}
+
+/// Serde helper: a duration field that accepts `"10ms"`-style strings or a number of µs.
+pub mod serde_us {
+    use serde::{Deserialize, Deserializer};
+
+    #[derive(Deserialize)]
+    #[serde(untagged)]
+    enum Raw {
+        Text(String),
+        Number(f64),
+    }
+
+    /// Deserialize µs from `"10ms"`, `"1.5s"`, `250` (µs).
+    pub fn deserialize<'de, D: Deserializer<'de>>(d: D) -> Result<i64, D::Error> {
+        match Raw::deserialize(d)? {
+            Raw::Text(s) => super::parse_us(&s).map_err(serde::de::Error::custom),
+            Raw::Number(n) if n.is_finite() && n.abs() < 9.0e18 => Ok(n.round() as i64),
+            Raw::Number(n) => Err(serde::de::Error::custom(format!("{n} µs is out of range"))),
+        }
     }
 }

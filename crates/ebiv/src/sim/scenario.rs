@@ -1,0 +1,202 @@
+//! Scenario files: a whole synthetic recording described in TOML, and the ready examples
+//! `ebiv simulate --example NAME` runs.
+
+use super::flow::FlowSpec;
+use super::particles::SeedingParams;
+use super::scene::IlluminationParams;
+use super::sensor::SensorParams;
+use super::simulation::Simulation;
+use crate::error::{Error, Result};
+use crate::event::Geometry;
+
+/// A scenario as written in TOML. Durations accept units (`"20ms"`, `"1.5s"`; numbers are µs).
+#[derive(Debug, Clone, serde::Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Scenario {
+    /// Random seed (particles, sensor mismatch, noise).
+    #[serde(default = "default_seed")]
+    pub seed: u64,
+    /// Length of the recording.
+    #[serde(deserialize_with = "crate::units::serde_us::deserialize")]
+    pub duration: i64,
+    /// Camera time of the first sample.
+    #[serde(default, deserialize_with = "crate::units::serde_us::deserialize")]
+    pub start: i64,
+    /// Sensor size, preset and parameter overrides.
+    pub sensor: SensorSection,
+    /// The flow.
+    pub flow: FlowSpec,
+    /// Particles and light sheet.
+    #[serde(default)]
+    pub particles: SeedingParams,
+    /// Light and static scene.
+    #[serde(default)]
+    pub illumination: IlluminationParams,
+    /// Time sampling of the simulation.
+    #[serde(default)]
+    pub sampling: Sampling,
+    /// Ground-truth outputs.
+    #[serde(default)]
+    pub truth: TruthSpec,
+}
+
+fn default_seed() -> u64 {
+    1
+}
+
+/// `[sensor]`: size, a preset, and any [`SensorParams`] field to override.
+#[derive(Debug, Clone, serde::Deserialize)]
+pub struct SensorSection {
+    /// Columns.
+    pub width: u32,
+    /// Rows.
+    pub height: u32,
+    /// `ideal`, `gen4` or `noisy`.
+    #[serde(default = "default_preset")]
+    pub preset: String,
+    /// Overrides of the preset's parameters.
+    #[serde(flatten)]
+    pub overrides: toml::Table,
+}
+
+fn default_preset() -> String {
+    "gen4".into()
+}
+
+/// `[sampling]`: how finely time is sampled.
+#[derive(Debug, Clone, serde::Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct Sampling {
+    /// Largest particle displacement between samples, px.
+    pub step_px: f64,
+    /// Longest interval between samples, µs.
+    pub max_step_us: f64,
+}
+
+impl Default for Sampling {
+    fn default() -> Self {
+        Sampling {
+            step_px: 0.1,
+            max_step_us: 50.0,
+        }
+    }
+}
+
+/// `[truth]`: where and when the true velocity field is sampled.
+#[derive(Debug, Clone, serde::Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct TruthSpec {
+    /// Grid spacing of the velocity truth, px.
+    pub grid_step: f64,
+    /// Time between truth fields.
+    #[serde(deserialize_with = "crate::units::serde_us::deserialize")]
+    pub interval: i64,
+    /// Time between samples of the particle tracks.
+    #[serde(deserialize_with = "crate::units::serde_us::deserialize")]
+    pub track_interval: i64,
+}
+
+impl Default for TruthSpec {
+    fn default() -> Self {
+        TruthSpec {
+            grid_step: 16.0,
+            interval: 1000,
+            track_interval: 100,
+        }
+    }
+}
+
+/// The ready scenarios: name, one-line description, TOML.
+pub const EXAMPLES: [(&str, &str, &str); 4] = [
+    ("uniform", "uniform flow at 2 px/ms, 640x480, gen4 sensor", include_str!("examples/uniform.toml")),
+    ("turntable", "solid-body rotation (a turntable), 640x480", include_str!("examples/turntable.toml")),
+    ("vortex", "Lamb-Oseen vortex in a uniform stream, 640x480", include_str!("examples/vortex.toml")),
+    (
+        "shear-layer",
+        "Couette shear with a bright wall at the bottom, 640x480",
+        include_str!("examples/shear_layer.toml"),
+    ),
+];
+
+impl Scenario {
+    /// The TOML of a ready scenario.
+    pub fn example(name: &str) -> Option<&'static str> {
+        EXAMPLES.iter().find(|e| e.0 == name).map(|e| e.2)
+    }
+
+    /// Parse a scenario; `origin` names the file in messages.
+    pub fn from_toml(text: &str, origin: &str) -> Result<Scenario> {
+        toml::from_str(text).map_err(|e| Error::Parse {
+            context: origin.to_string(),
+            line: e
+                .span()
+                .map(|s| text[..s.start.min(text.len())].lines().count().max(1) as u64)
+                .unwrap_or(0),
+            message: e.message().to_string(),
+        })
+    }
+
+    /// The sensor parameters: the preset with the overrides applied, validated.
+    pub fn sensor_params(&self) -> Result<SensorParams> {
+        let preset = SensorParams::preset(&self.sensor.preset).ok_or_else(|| {
+            Error::parameter(
+                "sensor.preset",
+                format!("`{}` is not a preset; use ideal, gen4 or noisy", self.sensor.preset),
+            )
+        })?;
+        let mut table = toml::Table::try_from(&preset)
+            .map_err(|e| Error::parameter("sensor", e.to_string()))?;
+        for (k, v) in &self.sensor.overrides {
+            table.insert(k.clone(), v.clone());
+        }
+        let params: SensorParams = table
+            .try_into()
+            .map_err(|e: toml::de::Error| Error::parameter("sensor", e.message().to_string()))?;
+        params.validate()?;
+        Ok(params)
+    }
+
+    /// The simulation this scenario describes.
+    pub fn simulation(&self) -> Result<Simulation> {
+        let sim = Simulation {
+            geometry: Geometry::new(self.sensor.width, self.sensor.height),
+            flow: self.flow.build()?,
+            seeding: self.particles.clone(),
+            illumination: self.illumination.clone(),
+            sensor: self.sensor_params()?,
+            start_us: self.start,
+            duration_us: self.duration,
+            step_px: self.sampling.step_px,
+            max_step_us: self.sampling.max_step_us,
+            seed: self.seed,
+        };
+        sim.validate()?;
+        Ok(sim)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn every_example_parses_and_builds() {
+        for (name, _, text) in EXAMPLES {
+            let s = Scenario::from_toml(text, name).unwrap_or_else(|e| panic!("{name}: {e}"));
+            s.simulation().unwrap_or_else(|e| panic!("{name}: {e}"));
+        }
+    }
+
+    #[test]
+    fn overrides_apply_and_typos_are_named() {
+        let text = Scenario::example("uniform").unwrap().replace("preset = \"gen4\"", "preset = \"ideal\"\nthreshold_on = 0.3");
+        let s = Scenario::from_toml(&text, "t").unwrap();
+        assert_eq!(s.sensor_params().unwrap().threshold_on, 0.3);
+        let typo = text.replace("threshold_on = 0.3", "treshold_on = 0.3");
+        let err = Scenario::from_toml(&typo, "t").unwrap().sensor_params().unwrap_err().to_string();
+        assert!(err.contains("treshold_on"), "{err}");
+        let bad = text.replace("duration = ", "duration = \"ten\" #");
+        let err = Scenario::from_toml(&bad, "s.toml").unwrap_err().to_string();
+        assert!(err.contains("s.toml") && err.contains("not a time"), "{err}");
+    }
+}

@@ -1,0 +1,296 @@
+//! A band of sensor rows: per-pixel state, fixed pattern and the active set.
+
+use std::ops::Range;
+
+use super::active::ActiveSet;
+use super::detector::{Pixel, StepContext};
+use super::params::SensorParams;
+use super::response::{clean_irradiance, Curve, Response, MIN_THRESHOLD};
+use super::{PixelCounters, SimEvent};
+use crate::error::{Error, Result};
+use crate::event::Geometry;
+use crate::sim::rng::{Rng, Stream};
+
+/// Largest sensor side: event coordinates are `u16`.
+const MAX_SIDE: u32 = 1 << 16;
+
+/// Most pixels [`SensorBand::try_new`] accepts in one band (64 bytes of state each).
+const MAX_BAND_PIXELS: u64 = 1 << 26;
+
+/// Sub-seed labels for the temporal random streams (one [`Stream::Temporal`] generator per
+/// pixel or row and per label, so that no two draws share a generator).
+pub(super) const TAG_JITTER: u64 = 0x4A49_5454;
+pub(super) const TAG_NOISE: u64 = 0x4E4F_4953;
+pub(super) const TAG_HOT: u64 = 0x484F_5421;
+
+/// A seed derived from `seed` and a label (SplitMix64 finaliser).
+pub(super) fn sub_seed(seed: u64, tag: u64) -> u64 {
+    let mut z = seed ^ tag.wrapping_mul(0x9E37_79B9_7F4A_7C15);
+    z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+    z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+    z ^ (z >> 31)
+}
+
+/// The pixels of rows `rows` of a sensor of `geometry` (sensor-model.md §2).
+///
+/// Bands run in parallel; every random number a pixel uses comes from a generator indexed by
+/// its pixel index in the full sensor (noise by its row), so splitting the sensor into bands
+/// changes nothing. Only pixels in the *active set* cost work per step: those whose irradiance
+/// changed, that are blind, or whose low-pass state may still reach a threshold. A pixel whose
+/// input and low-pass output both lie strictly between its two threshold levels cannot fire
+/// while its input is constant; it is frozen and its exponential relaxation applied in one
+/// piece when it is next touched.
+#[derive(Debug, Clone)]
+pub struct SensorBand {
+    pub(super) geometry: Geometry,
+    pub(super) rows: Range<u32>,
+    pixels: Vec<Pixel>,
+    /// Irradiance samples of the pixels marked changed in `active`.
+    pending: Vec<f32>,
+    active: ActiveSet,
+    t_now: f64,
+    pub(super) response: Response,
+    pub(super) seed: u64,
+    pub(super) counters: PixelCounters,
+    /// Frozen per-pixel noise-rate factor (empty when all are 1).
+    pub(super) noise_factor: Vec<f32>,
+    /// Per row, an upper bound of the leak + shot-noise rate of any pixel, events/µs.
+    pub(super) row_noise_bound: Vec<f64>,
+    /// Local indices of hot pixels.
+    pub(super) hot: Vec<u32>,
+    pub(super) params: SensorParams,
+    pub(super) noise_calls: u64,
+    updates: u64,
+}
+
+impl SensorBand {
+    /// The pixels of rows `rows` of `geometry`, with fixed-pattern properties (threshold
+    /// mismatch, noise-rate factors, hot pixels) drawn from `seed`. All pixels start adapted to
+    /// irradiance 0 at t = 0; call [`SensorBand::adapt`] first.
+    ///
+    /// Never panics: rows are clipped to the sensor, a side beyond 65 536 pixels (the range of
+    /// event coordinates) is clipped, and parameters are clamped to usable values. Use
+    /// [`SensorBand::try_new`] to have them checked instead.
+    pub fn new(geometry: Geometry, rows: Range<u32>, params: &SensorParams, seed: u64) -> Self {
+        let geometry = Geometry::new(geometry.width.min(MAX_SIDE), geometry.height.min(MAX_SIDE));
+        let end = rows.end.min(geometry.height);
+        let rows = rows.start.min(end)..end;
+        let response = Response::new(params);
+        let width = geometry.width as usize;
+        let n = width * rows.len();
+        let first = rows.start as u64 * geometry.width as u64;
+
+        let cov = super::response::clean(params.noise_rate_cov_decades, 0.0, 2.0, 0.0);
+        let sigma_ln = cov * std::f64::consts::LN_10;
+        let factor_norm = (-0.5 * sigma_ln * sigma_ln).exp();
+        let hot_fraction = super::response::clean(params.hot_pixel_fraction, 0.0, 1.0, 0.0);
+
+        let mut pixels = Vec::with_capacity(n);
+        let mut noise_factor = Vec::with_capacity(if cov > 0.0 { n } else { 0 });
+        let mut hot = Vec::new();
+        for i in 0..n {
+            // Fixed-pattern draws in a fixed order, whatever the parameters (v2e: frozen
+            // N(θ, σ) thresholds clamped ≥ 0.01, log-normal noise-rate factor).
+            let mut rng = Rng::new(seed, Stream::FixedPattern, first + i as u64);
+            let z_on = rng.normal();
+            let z_off = rng.normal();
+            let z_noise = rng.normal();
+            let u_hot = rng.uniform();
+            let theta_on = (response.theta_on + response.sigma * z_on).max(MIN_THRESHOLD);
+            let theta_off = (response.theta_off + response.sigma * z_off).max(MIN_THRESHOLD);
+            pixels.push(Pixel::new(theta_on, theta_off));
+            if cov > 0.0 {
+                noise_factor.push(((sigma_ln * z_noise).exp() * factor_norm) as f32);
+            }
+            if u_hot < hot_fraction {
+                hot.push(i as u32);
+            }
+        }
+        let mut band = SensorBand {
+            geometry,
+            rows,
+            pixels,
+            pending: vec![0.0; n],
+            active: ActiveSet::new(n),
+            t_now: 0.0,
+            response,
+            seed,
+            counters: PixelCounters::default(),
+            noise_factor,
+            row_noise_bound: Vec::new(),
+            hot,
+            params: params.clone(),
+            noise_calls: 0,
+            updates: 0,
+        };
+        band.row_noise_bound = band.compute_row_noise_bounds();
+        band.adapt(0.0, |_, _| 0.0);
+        band
+    }
+
+    /// [`SensorBand::new`] after checking the parameters, the geometry and the rows.
+    pub fn try_new(
+        geometry: Geometry,
+        rows: Range<u32>,
+        params: &SensorParams,
+        seed: u64,
+    ) -> Result<Self> {
+        params.validate()?;
+        if geometry.width > MAX_SIDE || geometry.height > MAX_SIDE {
+            return Err(Error::parameter(
+                "geometry",
+                format!("{geometry} exceeds the 65536 × 65536 range of event coordinates"),
+            ));
+        }
+        if rows.start > rows.end || rows.end > geometry.height {
+            return Err(Error::parameter(
+                "rows",
+                format!("{rows:?} is not a range of rows of {geometry}"),
+            ));
+        }
+        let pixels = geometry.width as u64 * rows.len() as u64;
+        if pixels > MAX_BAND_PIXELS {
+            return Err(Error::parameter(
+                "rows",
+                format!(
+                    "a band of {pixels} pixels exceeds the limit of {MAX_BAND_PIXELS}; \
+                     split the sensor into more bands"
+                ),
+            ));
+        }
+        Ok(Self::new(geometry, rows, params, seed))
+    }
+
+    /// Start: every pixel adapted to the irradiance `irradiance(x, y)` at time `t0_us`, its
+    /// low-pass settled and its reference equal to its log response (no events).
+    pub fn adapt(&mut self, t0_us: f64, irradiance: impl Fn(u32, u32) -> f32) {
+        let t0 = if t0_us.is_finite() { t0_us } else { 0.0 };
+        let width = self.geometry.width;
+        for (i, px) in self.pixels.iter_mut().enumerate() {
+            let x = (i % width as usize) as u32;
+            let y = self.rows.start + (i / width as usize) as u32;
+            let irr = clean_irradiance(irradiance(x, y));
+            let u = self.response.log(irr);
+            px.adapt(irr, u, t0);
+        }
+        self.active.clear();
+        self.t_now = t0;
+    }
+
+    /// Advance to `t_us` (µs; a time before the current one, or not finite, is taken as the
+    /// current time, i.e. an instantaneous change).
+    ///
+    /// `changed` lists `(pixel index y·width + x in the full sensor, new irradiance)` for every
+    /// pixel whose irradiance differs from its previous sample; entries outside this band are
+    /// ignored, a repeated pixel takes its last value. Between samples a pixel's log response
+    /// varies linearly in time (ESIM's interpolation, §2.1 — for the fine steps of §3 this is
+    /// the linear irradiance ramp to within O(Δ²)). Pixels not listed keep their irradiance;
+    /// their low-pass still relaxes and may fire.
+    ///
+    /// Appends events with exact threshold-crossing times (linear input: analytic; low-pass:
+    /// the exact first-order solution, root-found to 1e-7 µs), plus jitter and latency, in no
+    /// particular order. An event is never earlier than its crossing, so all are at or after
+    /// the previous time; latency, jitter and the refractory release can put them after
+    /// `t_us` (keep a margin of latency + refractory period + a few jitter σ when reading out
+    /// a stream in pieces). Allocation-free apart from the growth of `out`.
+    pub fn advance(&mut self, t_us: f64, changed: &[(u32, f32)], out: &mut Vec<SimEvent>) {
+        let ta = self.t_now;
+        let tb = if t_us.is_finite() && t_us > ta {
+            t_us
+        } else {
+            ta
+        };
+        let first = self.rows.start as u64 * self.geometry.width as u64;
+        let n = self.pixels.len() as u64;
+        for &(index, irr) in changed {
+            let local = (index as u64).wrapping_sub(first);
+            if local >= n {
+                continue;
+            }
+            self.pending[local as usize] = clean_irradiance(irr);
+            self.active.insert_changed(local as usize);
+        }
+        self.updates += self.active.len() as u64;
+        let mut ctx = StepContext {
+            response: &self.response,
+            jitter_seed: sub_seed(self.seed, TAG_JITTER),
+            width: self.geometry.width,
+            row0: self.rows.start,
+            first: first as u32,
+            counters: &mut self.counters,
+            out,
+        };
+        let (pixels, pending) = (&mut self.pixels, &self.pending);
+        self.active.retain(|local, changed| {
+            let new_irr = changed.then(|| pending[local]);
+            ctx.step(&mut pixels[local], local as u32, ta, tb, new_irr)
+        });
+        self.t_now = tb;
+    }
+
+    /// The band's current time, µs.
+    pub fn time_us(&self) -> f64 {
+        self.t_now
+    }
+
+    /// Number of pixels in the active set.
+    pub fn active_pixels(&self) -> usize {
+        self.active.len()
+    }
+
+    /// Pixel steps computed so far (the size of the active set summed over `advance` calls):
+    /// the measure of the simulator's work.
+    pub fn pixel_updates(&self) -> u64 {
+        self.updates
+    }
+
+    /// Number of pixels of the band.
+    pub fn pixel_count(&self) -> usize {
+        self.pixels.len()
+    }
+
+    /// What the pixels of this band did so far.
+    pub fn counters(&self) -> PixelCounters {
+        self.counters
+    }
+
+    /// The frozen ON and OFF thresholds of pixel `(x, y)`, if it belongs to this band.
+    pub fn thresholds(&self, x: u32, y: u32) -> Option<(f64, f64)> {
+        let px = self.pixel(x, y)?;
+        Some((px.theta_on, px.theta_off))
+    }
+
+    /// The low-passed log intensity and the reference level of pixel `(x, y)`, brought to
+    /// the band's current time.
+    pub fn log_state(&self, x: u32, y: u32) -> Option<(f64, f64)> {
+        let px = self.pixel(x, y)?;
+        let l = if px.t < self.t_now && self.response.low_pass() {
+            let omega = self.response.omega(px.irr as f64);
+            Curve::low_pass(px.t, self.t_now, px.l, px.u, px.u, omega).value(self.t_now)
+        } else {
+            px.l
+        };
+        Some((l, px.l_ref))
+    }
+
+    fn pixel(&self, x: u32, y: u32) -> Option<&Pixel> {
+        if x >= self.geometry.width || !self.rows.contains(&y) {
+            return None;
+        }
+        let local = (y - self.rows.start) as usize * self.geometry.width as usize + x as usize;
+        self.pixels.get(local)
+    }
+
+    /// Irradiance of local pixel `i` (for the noise model).
+    #[inline]
+    pub(super) fn irradiance_of(&self, i: usize) -> f32 {
+        self.pixels[i].irr
+    }
+
+    /// ON and OFF thresholds of local pixel `i`.
+    #[inline]
+    pub(super) fn thresholds_of(&self, i: usize) -> (f64, f64) {
+        let px = &self.pixels[i];
+        (px.theta_on, px.theta_off)
+    }
+}

@@ -1,0 +1,291 @@
+//! The change detector of one pixel over one time step (sensor-model.md §2.1, §2.5): level
+//! crossings of the low-passed log intensity, refractory period, jitter and latency.
+
+use super::response::{Curve, Response};
+use super::{PixelCounters, SimEvent};
+use crate::sim::rng::{Rng, Stream};
+
+/// Bit of [`Pixel::events`]: the pixel is blind (refractory) until `release`, then its
+/// reference is reset.
+const BLIND: u32 = 1 << 31;
+
+/// State of one pixel: one cache line.
+#[derive(Debug, Clone, Copy)]
+#[repr(C, align(64))]
+pub(super) struct Pixel {
+    /// Low-passed log intensity `L_lp` at time `t`.
+    pub(super) l: f64,
+    /// Reference level `L_ref` of the change detector.
+    pub(super) l_ref: f64,
+    /// Log response to `irr`, the input the low-pass relaxes to.
+    pub(super) u: f64,
+    /// Time of `l`, µs.
+    pub(super) t: f64,
+    /// Earliest time of the next comparator trip: previous trip + refractory period; the end
+    /// of the blind time while blind.
+    pub(super) release: f64,
+    /// Frozen ON threshold θ_on(x).
+    pub(super) theta_on: f64,
+    /// Frozen OFF threshold θ_off(x).
+    pub(super) theta_off: f64,
+    /// Irradiance of the last sample.
+    pub(super) irr: f32,
+    /// Events emitted so far (31 bits, indexing the jitter stream) and the `BLIND` bit.
+    events: u32,
+}
+
+impl Pixel {
+    /// A pixel with thresholds `theta_on`, `theta_off`, adapted to log response `u` at `t`.
+    pub(super) fn new(theta_on: f64, theta_off: f64) -> Self {
+        Pixel {
+            l: 0.0,
+            l_ref: 0.0,
+            u: 0.0,
+            t: 0.0,
+            release: f64::NEG_INFINITY,
+            theta_on,
+            theta_off,
+            irr: 0.0,
+            events: 0,
+        }
+    }
+
+    /// Adapt to irradiance `irr` with log response `u` at time `t`: settled, not blind.
+    pub(super) fn adapt(&mut self, irr: f32, u: f64, t: f64) {
+        self.irr = irr;
+        self.u = u;
+        self.l = u;
+        self.l_ref = u;
+        self.t = t;
+        self.release = f64::NEG_INFINITY;
+        self.events &= !BLIND;
+    }
+
+    #[inline]
+    fn blind(&self) -> bool {
+        self.events & BLIND != 0
+    }
+
+    #[inline]
+    fn set_blind(&mut self, blind: bool) {
+        if blind {
+            self.events |= BLIND;
+        } else {
+            self.events &= !BLIND;
+        }
+    }
+
+    /// Count one event; returns the previous count.
+    #[inline]
+    fn count_event(&mut self) -> u32 {
+        let n = self.events & !BLIND;
+        self.events = (self.events & BLIND) | (n.wrapping_add(1) & !BLIND);
+        n
+    }
+}
+
+/// Everything one step of one pixel needs besides the pixel.
+pub(super) struct StepContext<'a> {
+    pub(super) response: &'a Response,
+    pub(super) jitter_seed: u64,
+    pub(super) width: u32,
+    pub(super) row0: u32,
+    pub(super) first: u32,
+    pub(super) counters: &'a mut PixelCounters,
+    pub(super) out: &'a mut Vec<SimEvent>,
+}
+
+/// Safety net: the most level crossings one pixel may process in one step.
+const MAX_CROSSINGS_PER_STEP: u32 = 1 << 20;
+
+/// A level counts as reached within this many ln units, so that rounding cannot decide a tie:
+/// a return to the same irradiance gives exactly as many OFF as ON events (v2e rounds its log
+/// values to 1e-8 for the same reason, sensor-model.md §2.2).
+const TIE: f64 = 1e-9;
+
+impl StepContext<'_> {
+    /// Advance one active pixel over `[ta, tb]`; returns whether it stays active.
+    #[inline]
+    pub(super) fn step(
+        &mut self,
+        px: &mut Pixel,
+        local: u32,
+        ta: f64,
+        tb: f64,
+        new_irr: Option<f32>,
+    ) -> bool {
+        let r = self.response;
+        if px.t < ta {
+            // A frozen pixel: apply its relaxation since it was last touched (no crossing
+            // can have happened, see `SensorBand`).
+            if r.low_pass() {
+                let omega = r.omega(px.irr as f64);
+                px.l = Curve::low_pass(px.t, ta, px.l, px.u, px.u, omega).value(ta);
+            }
+            px.t = ta;
+        }
+        let irr_b = new_irr.unwrap_or(px.irr);
+        let ub = if irr_b != px.irr { r.log(irr_b) } else { px.u };
+        let curve = if r.low_pass() {
+            let omega = r.omega(0.5 * (px.irr as f64 + irr_b as f64));
+            Curve::low_pass(ta, tb, px.l, px.u, ub, omega)
+        } else {
+            Curve::direct(ta, tb, px.u, ub)
+        };
+        let lb = curve.value(curve.tb);
+        let (theta_on, theta_off) = (px.theta_on, px.theta_off);
+
+        // Fast path: not blind, `L` inside both levels at the end and, if it may have an
+        // extremum (which lies on the input line), the input inside them too.
+        let hi = px.l_ref + theta_on - TIE;
+        let lo = px.l_ref - theta_off + TIE;
+        let inside = |v: f64| v < hi && v > lo;
+        let quiet = !px.blind() && inside(lb) && (inside(px.u) && inside(ub) || !curve.may_turn());
+        if !quiet {
+            let split = curve.extremum();
+            let start = (curve.ta, curve.start_value());
+            match split {
+                Some(s) => {
+                    let turn = (s, curve.value(s));
+                    self.crossings(px, local, &curve, start, turn);
+                    self.crossings(px, local, &curve, turn, (curve.tb, lb));
+                }
+                None => self.crossings(px, local, &curve, start, (curve.tb, lb)),
+            }
+        }
+        px.l = lb;
+        px.u = ub;
+        px.irr = irr_b;
+        px.t = tb;
+
+        if px.blind() {
+            return true;
+        }
+        if !r.low_pass() || r.omega(irr_b as f64) <= 0.0 {
+            return false;
+        }
+        let hi = px.l_ref + theta_on - TIE;
+        let lo = px.l_ref - theta_off + TIE;
+        !(lb < hi && lb > lo && ub < hi && ub > lo)
+    }
+
+    /// Process the level crossings of `L` on the monotone piece from `(p0, L(p0))` to
+    /// `(p1, L(p1))`, starting with the pixel settled at `p0`: emit events, or count and absorb them while
+    /// the pixel is blind (sensor-model.md §2.1, §2.5).
+    fn crossings(
+        &mut self,
+        px: &mut Pixel,
+        local: u32,
+        curve: &Curve,
+        (p0, l0): (f64, f64),
+        (p1, l_end): (f64, f64),
+    ) {
+        let r = self.response;
+        let (theta_on, theta_off) = (px.theta_on, px.theta_off);
+        let (mut t, mut lt) = (p0, l0);
+        for _ in 0..MAX_CROSSINGS_PER_STEP {
+            if px.blind() {
+                if px.release > p1 {
+                    self.counters.suppressed_refractory += settle(px, l_end);
+                    return;
+                }
+                // The blind time ends inside the piece: count what it hid, then reset the
+                // reference to the photoreceptor value (IEBCS).
+                let end = px.release.max(t);
+                let l = curve.value(end);
+                self.counters.suppressed_refractory += settle(px, l);
+                px.l_ref = l;
+                px.set_blind(false);
+                (t, lt) = (end, l);
+                continue;
+            }
+            let (level, on) = if l_end >= px.l_ref + theta_on - TIE {
+                (px.l_ref + theta_on, true)
+            } else if l_end <= px.l_ref - theta_off + TIE {
+                (px.l_ref - theta_off, false)
+            } else {
+                return;
+            };
+            let sign = if on { 1.0 } else { -1.0 };
+            let t_cross = if sign * (lt - level) >= -TIE {
+                t
+            } else {
+                // A level reached only within the tie tolerance (an input settling exactly
+                // on it) is crossed where `L` comes within the tolerance.
+                let target = if sign * (l_end - level) < 0.0 {
+                    level - sign * TIE
+                } else {
+                    level
+                };
+                let root = curve.root(target, t, p1, lt, l_end);
+                lt = target;
+                root
+            };
+            px.l_ref = level;
+            self.emit(px, local, t_cross, on);
+            if r.refractory > 0.0 {
+                px.set_blind(true);
+            }
+            t = t_cross;
+        }
+    }
+
+    /// Emit one event whose threshold crossing is at `t_cross`.
+    ///
+    /// The comparator trips at `t_cross + j` with Gaussian jitter `j ≥ −latency` (events never
+    /// precede their cause), but not before the pixel is released from its previous event; the
+    /// event is stamped `latency` later; the pixel is blind until trip + refractory period.
+    #[inline]
+    fn emit(&mut self, px: &mut Pixel, local: u32, t_cross: f64, on: bool) {
+        let r = self.response;
+        let mut trip = t_cross;
+        let k = px.count_event();
+        if r.jitter > 0.0 {
+            let index = ((k as u64) << 32) | self.first.wrapping_add(local) as u64;
+            let z = Rng::new(self.jitter_seed, Stream::Temporal, index).normal();
+            trip += (r.jitter * z).max(-r.latency);
+        }
+        if trip < px.release {
+            trip = px.release;
+        }
+        px.release = trip + r.refractory;
+        let x = local % self.width;
+        let y = self.row0 + local / self.width;
+        self.out.push(SimEvent {
+            t_us: trip + r.latency,
+            x: x as u16,
+            y: y as u16,
+            p: on as u8,
+        });
+        if on {
+            self.counters.on += 1;
+        } else {
+            self.counters.off += 1;
+        }
+    }
+}
+
+/// Move the reference by whole thresholds until `l` lies between the levels (the crossings a
+/// blind pixel does not report, ESIM's "consumed" change); returns how many.
+fn settle(px: &mut Pixel, l: f64) -> u64 {
+    let (theta_on, theta_off) = (px.theta_on, px.theta_off);
+    let mut n = 0u64;
+    if l >= px.l_ref + theta_on - TIE {
+        let k = ((l - px.l_ref + TIE) / theta_on).floor().max(1.0);
+        px.l_ref += k * theta_on;
+        n += k as u64;
+        while l >= px.l_ref + theta_on - TIE {
+            px.l_ref += theta_on;
+            n += 1;
+        }
+    } else if l <= px.l_ref - theta_off + TIE {
+        let k = ((px.l_ref - l + TIE) / theta_off).floor().max(1.0);
+        px.l_ref -= k * theta_off;
+        n += k as u64;
+        while l <= px.l_ref - theta_off + TIE {
+            px.l_ref -= theta_off;
+            n += 1;
+        }
+    }
+    n
+}

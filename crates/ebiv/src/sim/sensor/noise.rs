@@ -1,0 +1,153 @@
+//! Background activity: leak, shot noise and hot pixels (sensor-model.md §2.6, §2.7).
+//!
+//! Each is a Poisson process per pixel, independent of the pixel's change detector: noise
+//! events do not move its reference. (v2e and IEBCS reset the reference after a noise event;
+//! at ≤ 5 Hz per pixel over recordings of milliseconds the difference is far below one
+//! event per pixel.) The readout's refractory filter ([`super::read_out`]) removes noise
+//! events that fall inside a pixel's blind time.
+
+use super::band::{sub_seed, SensorBand, TAG_HOT, TAG_NOISE};
+use super::response::clean;
+use super::SimEvent;
+use crate::sim::rng::{Rng, Stream};
+
+/// Hz to events per µs.
+const PER_US: f64 = 1e-6;
+
+impl SensorBand {
+    /// Leak, shot-noise and hot-pixel events of this band over `[t0_us, t1_us)`, appended to
+    /// `out` with exact times.
+    ///
+    /// * Leak (v2e, Hu et al. CVPRW 2021): ON events at `leak_rate_hz · n(x)` with a frozen
+    ///   log-normal factor `n(x) = 10^(c·z)` (c = `noise_rate_cov_decades`), normalised to mean 1.
+    /// * Shot noise (v2e): `shot_noise_rate_hz / 2` per polarity, scaled by
+    ///   `θ_nominal / θ(x)` (low-threshold pixels are noisier) and by `1 − 0.75·b(I)` with b the
+    ///   relative bandwidth at the pixel's irradiance, so 25 % of the dark rate at and above
+    ///   the reference irradiance.
+    /// * Hot pixels: `hot_pixel_rate_hz`, each event ON or OFF with probability ½.
+    ///
+    /// Leak and shot noise are drawn per row (exact thinning of a bounding Poisson process),
+    /// hot pixels per pixel; rows and pixels index the generators, so bands do not matter.
+    /// Successive calls draw from fresh generators; all bands must see the same calls.
+    pub fn noise(&mut self, t0_us: f64, t1_us: f64, out: &mut Vec<SimEvent>) {
+        let call = self.noise_calls;
+        self.noise_calls += 1;
+        if !(t0_us.is_finite() && t1_us.is_finite() && t1_us > t0_us) {
+            return;
+        }
+        let leak = clean(self.params.leak_rate_hz, 0.0, 1e6, 0.0) * PER_US;
+        let shot = clean(self.params.shot_noise_rate_hz, 0.0, 1e6, 0.0) * PER_US;
+        let width = self.geometry.width as usize;
+        let noise_seed = sub_seed(self.seed, TAG_NOISE);
+        let (theta_on_nominal, theta_off_nominal) =
+            (self.response.theta_on, self.response.theta_off);
+
+        for (row_index, &bound) in self.row_noise_bound.iter().enumerate() {
+            if bound.is_nan() || bound <= 0.0 || width == 0 {
+                continue;
+            }
+            let y = self.rows.start + row_index as u32;
+            let total = bound * width as f64;
+            let mut rng = Rng::new(noise_seed, Stream::Temporal, (call << 32) | y as u64);
+            let mut t = t0_us;
+            loop {
+                t += rng.exponential(total);
+                if t.is_nan() || t >= t1_us {
+                    break;
+                }
+                let x = ((rng.uniform() * width as f64) as usize).min(width - 1);
+                let mut u = rng.uniform() * bound;
+                let i = row_index * width + x;
+                let factor = self.noise_factor.get(i).map_or(1.0, |&f| f as f64);
+                let rate_leak = leak * factor;
+                let (theta_on, theta_off) = self.thresholds_of(i);
+                let scale = 0.5
+                    * shot
+                    * self
+                        .response
+                        .shot_noise_factor(self.irradiance_of(i) as f64);
+                let rate_on = scale * theta_on_nominal / theta_on;
+                let rate_off = scale * theta_off_nominal / theta_off;
+                let p = if u < rate_leak {
+                    self.counters.leak += 1;
+                    1
+                } else {
+                    u -= rate_leak;
+                    if u < rate_on {
+                        self.counters.shot += 1;
+                        1
+                    } else if u - rate_on < rate_off {
+                        self.counters.shot += 1;
+                        0
+                    } else {
+                        continue;
+                    }
+                };
+                out.push(SimEvent {
+                    t_us: t,
+                    x: x as u16,
+                    y: y as u16,
+                    p,
+                });
+            }
+        }
+
+        let hot_rate = clean(self.params.hot_pixel_rate_hz, 0.0, 1e6, 0.0) * PER_US;
+        if hot_rate > 0.0 && width > 0 {
+            let hot_seed = sub_seed(self.seed, TAG_HOT);
+            let first = self.rows.start as u64 * width as u64;
+            for &local in &self.hot {
+                let mut rng = Rng::new(
+                    hot_seed,
+                    Stream::Temporal,
+                    (call << 32) | (first + local as u64),
+                );
+                let x = local as usize % width;
+                let y = self.rows.start as usize + local as usize / width;
+                let mut t = t0_us;
+                loop {
+                    t += rng.exponential(hot_rate);
+                    if t.is_nan() || t >= t1_us {
+                        break;
+                    }
+                    let p = (rng.uniform() < 0.5) as u8;
+                    self.counters.hot += 1;
+                    out.push(SimEvent {
+                        t_us: t,
+                        x: x as u16,
+                        y: y as u16,
+                        p,
+                    });
+                }
+            }
+        }
+    }
+
+    /// Per row, an upper bound (events/µs) of any pixel's leak + shot-noise rate.
+    pub(super) fn compute_row_noise_bounds(&self) -> Vec<f64> {
+        let leak = clean(self.params.leak_rate_hz, 0.0, 1e6, 0.0) * PER_US;
+        let shot = clean(self.params.shot_noise_rate_hz, 0.0, 1e6, 0.0) * PER_US;
+        let width = self.geometry.width as usize;
+        let rows = self.rows.len();
+        let mut bounds = vec![0.0; rows];
+        if width == 0 || (leak <= 0.0 && shot <= 0.0) {
+            return bounds;
+        }
+        for (row_index, bound) in bounds.iter_mut().enumerate() {
+            let mut max_leak: f64 = 0.0;
+            let mut max_shot: f64 = 0.0;
+            for x in 0..width {
+                let i = row_index * width + x;
+                let factor = self.noise_factor.get(i).map_or(1.0, |&f| f as f64);
+                max_leak = max_leak.max(leak * factor);
+                let (theta_on, theta_off) = self.thresholds_of(i);
+                let s = 0.5
+                    * shot
+                    * (self.response.theta_on / theta_on + self.response.theta_off / theta_off);
+                max_shot = max_shot.max(s);
+            }
+            *bound = max_leak + max_shot;
+        }
+        bounds
+    }
+}

@@ -1,0 +1,159 @@
+//! The readout: time order, refractory filter, bandwidth limit and 1 µs time stamps
+//! (sensor-model.md §2.5, §2.10, §2.11).
+
+use std::collections::HashMap;
+
+use super::params::{SensorParams, TimestampMode};
+use super::response::clean;
+use super::{PixelCounters, SimEvent};
+use crate::event::EventBuffer;
+
+/// What the readout did, and (after [`ReadoutReport::absorb`]) what the pixels did.
+#[derive(Debug, Clone, Default, PartialEq, Eq, serde::Serialize)]
+pub struct ReadoutReport {
+    /// Events handed to the readout.
+    pub events_in: u64,
+    /// Events in the output buffer.
+    pub events_out: u64,
+    /// Events dropped because the readout bandwidth was exhausted.
+    pub dropped_bandwidth: u64,
+    /// Events inside the refractory time of an earlier event of the same pixel: those the
+    /// readout removed (noise events colliding with signal events) plus, after
+    /// [`ReadoutReport::absorb`], the crossings the pixels themselves suppressed.
+    pub dropped_refractory: u64,
+    /// Events with a non-finite time or a polarity other than 0/1.
+    pub dropped_invalid: u64,
+    /// The pixels' counters, summed by [`ReadoutReport::absorb`].
+    pub pixels: PixelCounters,
+}
+
+impl ReadoutReport {
+    /// Add the counters of a band (`SensorBand::counters`), including its suppressed
+    /// refractory crossings in `dropped_refractory`.
+    pub fn absorb(&mut self, counters: &PixelCounters) {
+        self.pixels.merge(counters);
+        self.dropped_refractory += counters.suppressed_refractory;
+    }
+}
+
+/// Spacing tolerance of the refractory filter, µs: differences this close to the refractory
+/// period are rounding, not violations.
+const REFRACTORY_TOLERANCE_US: f64 = 1e-6;
+
+/// Largest pixel table the refractory filter allocates densely; larger sensors use a map.
+const DENSE_TABLE_LIMIT: usize = 1 << 24;
+
+/// Sort by time, enforce the refractory period across signal and noise events, apply the
+/// readout bandwidth limit, quantise to 1 µs, and return the events in time order.
+///
+/// * **Order**: exact time, then row, column, polarity — a total order, so the result does not
+///   depend on the order of `events` (how bands were concatenated).
+/// * **Refractory**: an event closer than `refractory_us` (less 1e-6 µs) to the previous kept
+///   event of its pixel is dropped; the earlier event wins (IEBCS: a pixel is blind after any
+///   event, §2.5).
+/// * **Bandwidth** (`bandwidth_ev_per_s = R`, `bandwidth_burst_events = D`): a token bucket.
+///   It holds up to D tokens, starts full and refills at R per second; an event passes if a
+///   token is available and takes it, and is dropped when the bucket is empty — so the
+///   earliest events of a burst pass and at most `D + R·(b − a)` events lie in any interval
+///   `[a, b]`. Passing events are not delayed (no FIFO). Real sensors also lose events row-wise
+///   (§2.11); this is the simplest model with that bound.
+/// * **Time stamps**: `round` or `truncate` (floor) to 1 µs, after the two steps above, which
+///   use exact times.
+pub fn read_out(mut events: Vec<SimEvent>, params: &SensorParams) -> (EventBuffer, ReadoutReport) {
+    let mut report = ReadoutReport {
+        events_in: events.len() as u64,
+        ..ReadoutReport::default()
+    };
+    let before = events.len();
+    events.retain(|e| e.t_us.is_finite() && e.p <= 1);
+    report.dropped_invalid = (before - events.len()) as u64;
+
+    events.sort_unstable_by_key(|e| (ordered_bits(e.t_us), e.y, e.x, e.p));
+
+    let refractory = clean(params.refractory_us, 0.0, 1e12, 0.0);
+    if refractory > 0.0 && !events.is_empty() {
+        report.dropped_refractory = refractory_filter(&mut events, refractory);
+    }
+
+    if let Some(rate) = params.bandwidth_ev_per_s.filter(|r| *r > 0.0) {
+        let burst = clean(params.bandwidth_burst_events, 1.0, 1e12, 1.0);
+        report.dropped_bandwidth = token_bucket(&mut events, rate * 1e-6, burst);
+    }
+
+    let mut buffer = EventBuffer::with_capacity(events.len());
+    for e in &events {
+        let t = match params.timestamp {
+            TimestampMode::Round => e.t_us.round(),
+            TimestampMode::Truncate => e.t_us.floor(),
+        };
+        buffer.push(t as i64, e.x, e.y, e.p);
+    }
+    report.events_out = buffer.len() as u64;
+    (buffer, report)
+}
+
+/// A key whose unsigned order is the numeric order of finite `t`.
+#[inline]
+fn ordered_bits(t: f64) -> u64 {
+    let bits = t.to_bits();
+    if bits >> 63 == 1 {
+        !bits
+    } else {
+        bits | (1 << 63)
+    }
+}
+
+/// Drop events within `refractory` µs of the previous kept event of the same pixel; returns
+/// how many were dropped. `events` is in time order.
+fn refractory_filter(events: &mut Vec<SimEvent>, refractory: f64) -> u64 {
+    let width = events.iter().map(|e| e.x as usize).max().unwrap_or(0) + 1;
+    let height = events.iter().map(|e| e.y as usize).max().unwrap_or(0) + 1;
+    let limit = refractory - REFRACTORY_TOLERANCE_US;
+    let before = events.len();
+    if width * height <= DENSE_TABLE_LIMIT {
+        let mut last = vec![f64::NEG_INFINITY; width * height];
+        events.retain(|e| {
+            let slot = &mut last[e.y as usize * width + e.x as usize];
+            if e.t_us - *slot < limit {
+                false
+            } else {
+                *slot = e.t_us;
+                true
+            }
+        });
+    } else {
+        let mut last: HashMap<(u16, u16), f64> = HashMap::new();
+        events.retain(|e| {
+            let slot = last.entry((e.x, e.y)).or_insert(f64::NEG_INFINITY);
+            if e.t_us - *slot < limit {
+                false
+            } else {
+                *slot = e.t_us;
+                true
+            }
+        });
+    }
+    (before - events.len()) as u64
+}
+
+/// The token bucket of [`read_out`]: `rate` tokens per µs, depth `burst`; returns the number
+/// of events dropped. `events` is in time order.
+fn token_bucket(events: &mut Vec<SimEvent>, rate: f64, burst: f64) -> u64 {
+    let Some(first) = events.first() else {
+        return 0;
+    };
+    let mut tokens = burst;
+    let mut last = first.t_us;
+    let before = events.len();
+    events.retain(|e| {
+        tokens = (tokens + (e.t_us - last) * rate).min(burst);
+        last = e.t_us;
+        if tokens >= 1.0 - 1e-9 {
+            tokens -= 1.0;
+            true
+        } else {
+            false
+        }
+    });
+    (before - events.len()) as u64
+}

@@ -1,0 +1,325 @@
+//! The pixel's photoreceptor: lin-log conversion, intensity-dependent first-order low-pass,
+//! and the exact solution of the low-pass over one time step (sensor-model.md §2.2, §2.4, §3).
+
+use super::params::SensorParams;
+
+/// The constants of the pixel model in simulation units (µs, ln intensity), sanitised so that
+/// no parameter value, valid or not, can make the arithmetic panic or loop.
+#[derive(Debug, Clone)]
+pub(super) struct Response {
+    knee: f64,
+    ln_knee: f64,
+    eps: f64,
+    /// 2π f_3dB in rad/µs at and above the reference irradiance; 0 = no low-pass.
+    omega_max: f64,
+    reference: f64,
+    dark: f64,
+    pub theta_on: f64,
+    pub theta_off: f64,
+    pub sigma: f64,
+    pub latency: f64,
+    pub jitter: f64,
+    pub refractory: f64,
+}
+
+/// The value of `v` clamped to `[lo, hi]`, or `fallback` when it is not a number.
+pub(super) fn clean(v: f64, lo: f64, hi: f64, fallback: f64) -> f64 {
+    if v.is_nan() {
+        fallback
+    } else {
+        v.clamp(lo, hi)
+    }
+}
+
+/// A usable irradiance: negative and NaN become 0, infinity the largest `f32`.
+#[inline]
+pub(super) fn clean_irradiance(i: f32) -> f32 {
+    if i > 0.0 {
+        i.min(f32::MAX)
+    } else {
+        0.0
+    }
+}
+
+/// The smallest per-pixel threshold (v2e clamps mismatch draws at 0.01).
+pub(super) const MIN_THRESHOLD: f64 = 0.01;
+
+impl Response {
+    pub fn new(p: &SensorParams) -> Self {
+        let knee = clean(p.linlog_threshold, 0.0, 1e30, 0.0);
+        let mut eps = clean(p.log_eps, 0.0, 1e30, 1e-3);
+        if knee == 0.0 && eps == 0.0 {
+            eps = 1e-3;
+        }
+        let cutoff = clean(p.cutoff_hz, 0.0, 1e12, 0.0);
+        Response {
+            knee,
+            ln_knee: if knee > 0.0 { knee.ln() } else { 0.0 },
+            eps,
+            omega_max: std::f64::consts::TAU * cutoff * 1e-6,
+            reference: clean(p.cutoff_reference_irradiance, 0.0, 1e30, 0.0),
+            dark: clean(p.cutoff_dark_irradiance, 0.0, 1e30, 0.0),
+            theta_on: clean(p.threshold_on, MIN_THRESHOLD, 1e3, 0.2),
+            theta_off: clean(p.threshold_off, MIN_THRESHOLD, 1e3, 0.2),
+            sigma: clean(p.threshold_sigma, 0.0, 1e3, 0.0),
+            latency: clean(p.latency_us, 0.0, 1e12, 0.0),
+            jitter: clean(p.jitter_us, 0.0, 1e12, 0.0),
+            refractory: clean(p.refractory_us, 0.0, 1e12, 0.0),
+        }
+    }
+
+    /// The photoreceptor's log response to irradiance `i` (sensor-model.md §2.2): `ln i`
+    /// above the knee and its tangent line below it (continuous with a continuous slope, unlike
+    /// v2e's `x·ln(T)/T` segment, which is kinked and decreasing for T < 1), or `ln(ε + i)`.
+    #[inline]
+    pub fn log(&self, i: f32) -> f64 {
+        let i = i as f64;
+        if self.knee > 0.0 {
+            if i >= self.knee {
+                i.ln()
+            } else {
+                self.ln_knee + (i - self.knee) / self.knee
+            }
+        } else {
+            (i + self.eps).ln()
+        }
+    }
+
+    /// Whether the photoreceptor low-pass is on.
+    #[inline]
+    pub fn low_pass(&self) -> bool {
+        self.omega_max > 0.0
+    }
+
+    /// Relative bandwidth in (0, 1] at irradiance `i`: `min(1, (i + I_dark)/(I_ref + I_dark))`,
+    /// v2e's `inten01 = (I + 20)/275` (§2.4), or `None` without intensity dependence.
+    #[inline]
+    pub fn brightness(&self, i: f64) -> Option<f64> {
+        if self.reference > 0.0 {
+            let b = (i + self.dark) / (self.reference + self.dark);
+            Some(if b < 1.0 { b } else { 1.0 })
+        } else {
+            None
+        }
+    }
+
+    /// The low-pass corner `ω = 1/τ` in 1/µs at irradiance `i`.
+    #[inline]
+    pub fn omega(&self, i: f64) -> f64 {
+        match self.brightness(i) {
+            Some(b) => self.omega_max * b,
+            None => self.omega_max,
+        }
+    }
+
+    /// v2e's irradiance scaling of the shot-noise rate, `(0.25 − 1)·inten01 + 1` (§2.7): 1 in
+    /// the dark, 0.25 at and above the reference irradiance.
+    #[inline]
+    pub fn shot_noise_factor(&self, i: f64) -> f64 {
+        match self.brightness(i) {
+            Some(b) => 1.0 - 0.75 * b,
+            None => 1.0,
+        }
+    }
+}
+
+/// `1 − e^(−x)`. `exp` rather than `exp_m1` (twice as fast): the absolute error stays at
+/// 1e-16, which is all `L` needs — it is a sum of such terms of order one.
+fn one_minus_exp(x: f64) -> f64 {
+    1.0 - (-x).exp()
+}
+
+/// The low-passed log intensity `L(s)` of one pixel over one step `[ta, tb]`.
+///
+/// The input `u(s) = u_a + m·(s − ta)` is linear in time (log intensity interpolated between
+/// samples, as ESIM does, §2.1); the first-order filter `dL/ds = ω·(u − L)` with ω frozen at the
+/// step's mean irradiance then has the exact solution
+/// `L(s) = L_a + (u_a − L_a)·(1 − e^(−x)) + m·(Δs − (1 − e^(−x))/ω)`, `x = ω·Δs`, written so
+/// that it loses no precision when ω·Δs is small. It has at most one extremum.
+#[derive(Debug, Clone, Copy)]
+pub(super) struct Curve {
+    pub ta: f64,
+    pub tb: f64,
+    la: f64,
+    kind: Kind,
+}
+
+#[derive(Debug, Clone, Copy)]
+enum Kind {
+    /// `L(s) = L_a + slope·(s − ta)`: no low-pass (or a frozen one).
+    Linear { slope: f64 },
+    /// The exact low-pass response; `gap = u_a − L_a`.
+    Relax { gap: f64, m: f64, omega: f64 },
+}
+
+/// Newton iterations stop when the time changes by less than this, µs.
+const ROOT_TOLERANCE_US: f64 = 1e-7;
+
+impl Curve {
+    /// `L` follows the input exactly: from `ua` at `ta` to `ub` at `tb` (a jump when the step
+    /// has no length).
+    pub fn direct(ta: f64, tb: f64, ua: f64, ub: f64) -> Self {
+        let dt = tb - ta;
+        if dt > 1e-9 {
+            Curve {
+                ta,
+                tb,
+                la: ua,
+                kind: Kind::Linear {
+                    slope: (ub - ua) / dt,
+                },
+            }
+        } else {
+            Curve::constant(ta, ta, ub)
+        }
+    }
+
+    /// `L` stays at `l` over the step.
+    pub fn constant(ta: f64, tb: f64, l: f64) -> Self {
+        Curve {
+            ta,
+            tb,
+            la: l,
+            kind: Kind::Linear { slope: 0.0 },
+        }
+    }
+
+    /// The low-pass response starting from `la`, input from `ua` to `ub`, corner `omega`.
+    pub fn low_pass(ta: f64, tb: f64, la: f64, ua: f64, ub: f64, omega: f64) -> Self {
+        let dt = tb - ta;
+        if !(omega > 0.0 && dt > 0.0) {
+            return Curve::constant(ta, tb.max(ta), la);
+        }
+        let m = if dt > 1e-9 { (ub - ua) / dt } else { 0.0 };
+        Curve {
+            ta,
+            tb,
+            la,
+            kind: Kind::Relax {
+                gap: ua - la,
+                m,
+                omega,
+            },
+        }
+    }
+
+    /// `L(ta)`.
+    #[inline]
+    pub fn start_value(&self) -> f64 {
+        self.la
+    }
+
+    /// `L(s)`.
+    #[inline]
+    pub fn value(&self, s: f64) -> f64 {
+        let ds = s - self.ta;
+        match self.kind {
+            Kind::Linear { slope } => self.la + slope * ds,
+            Kind::Relax { gap, m, omega } => {
+                let e1 = one_minus_exp(omega * ds);
+                let mut l = self.la + gap * e1;
+                if m != 0.0 {
+                    l += m * (ds - e1 / omega);
+                }
+                l
+            }
+        }
+    }
+
+    /// `L(s)`, `dL/ds` and `d²L/ds²` of the low-pass response from one exponential.
+    #[inline]
+    fn derivatives(&self, s: f64) -> (f64, f64, f64) {
+        let ds = s - self.ta;
+        match self.kind {
+            Kind::Linear { slope } => (self.la + slope * ds, slope, 0.0),
+            Kind::Relax { gap, m, omega } => {
+                let e = (-omega * ds).exp();
+                let e1 = 1.0 - e;
+                let value = self.la + gap * e1 + m * (ds - e1 / omega);
+                let slope = gap * omega * e + m * e1;
+                let curvature = -omega * e * (gap * omega - m);
+                (value, slope, curvature)
+            }
+        }
+    }
+
+    /// Whether `L` may have an extremum inside the step (input and output move apart).
+    #[inline]
+    pub fn may_turn(&self) -> bool {
+        match self.kind {
+            Kind::Linear { .. } => false,
+            Kind::Relax { gap, m, .. } => m != 0.0 && gap != 0.0 && (gap > 0.0) != (m > 0.0),
+        }
+    }
+
+    /// The time of the extremum strictly inside the step, if any: where `u(s) = L(s)`.
+    pub fn extremum(&self) -> Option<f64> {
+        let Kind::Relax { gap, m, omega } = self.kind else {
+            return None;
+        };
+        if m == 0.0 || gap == 0.0 || (gap > 0.0) == (m > 0.0) {
+            return None;
+        }
+        let x = (-gap * omega / m).ln_1p();
+        let s = self.ta + x / omega;
+        (s > self.ta && s < self.tb).then_some(s)
+    }
+
+    /// The time in `[s0, s1]` where `L` reaches `level`, given that `L` is monotone there
+    /// with `L(s0) = l0`, `L(s1) = l1` and `level` between them.
+    pub fn root(&self, level: f64, s0: f64, s1: f64, l0: f64, l1: f64) -> f64 {
+        if s1 <= s0 || l1 == l0 {
+            return s0;
+        }
+        let s = match self.kind {
+            Kind::Linear { slope } => self.ta + (level - self.la) / slope,
+            Kind::Relax { gap, m: 0.0, omega } => {
+                // Pure relaxation: invert `L_a + gap·(1 − e^(−x)) = level` (IEBCS, §2.4).
+                let r = (level - self.la) / gap;
+                self.ta - (-r).ln_1p() / omega
+            }
+            Kind::Relax { .. } => self.newton(level, s0, s1, l0, l1),
+        };
+        if s.is_nan() {
+            s0
+        } else {
+            s.clamp(s0, s1)
+        }
+    }
+
+    /// Safeguarded Newton iteration from the linear interpolation of the bracket. A Newton
+    /// step `h` leaves an error of about `h²·|L''|/(2|L'|)`; once that is below the tolerance
+    /// the step is taken without a further evaluation.
+    fn newton(&self, level: f64, s0: f64, s1: f64, l0: f64, l1: f64) -> f64 {
+        let increasing = l1 > l0;
+        let (mut lo, mut hi) = (s0, s1);
+        let mut s = s0 + (level - l0) / (l1 - l0) * (s1 - s0);
+        for _ in 0..40 {
+            let (value, slope, curvature) = self.derivatives(s);
+            let f = value - level;
+            if f == 0.0 {
+                return s;
+            }
+            if (f < 0.0) == increasing {
+                lo = s;
+            } else {
+                hi = s;
+            }
+            let h = f / slope;
+            let mut next = s - h;
+            let newton_ok = next > lo && next < hi;
+            if !newton_ok {
+                next = 0.5 * (lo + hi);
+            }
+            let step = (next - s).abs();
+            s = next;
+            if step <= ROOT_TOLERANCE_US || hi - lo <= ROOT_TOLERANCE_US {
+                break;
+            }
+            if newton_ok && h * h * curvature.abs() < ROOT_TOLERANCE_US * slope.abs() {
+                break;
+            }
+        }
+        s
+    }
+}

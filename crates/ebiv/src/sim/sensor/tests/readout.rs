@@ -1,0 +1,210 @@
+//! The readout, parameters and robustness.
+
+use super::*;
+use crate::error::Error;
+
+fn ev(t_us: f64, x: u16, y: u16, p: u8) -> SimEvent {
+    SimEvent { t_us, x, y, p }
+}
+
+#[test]
+fn bandwidth_limit_drops_by_token_bucket_and_caps_the_rate() {
+    // A burst of 100 events/µs for 100 µs, then 1 event/µs: limit 20 events/µs, depth 5.
+    let mut events = Vec::new();
+    for k in 0..10_000u32 {
+        events.push(ev(
+            k as f64 * 0.01,
+            (k % 300) as u16,
+            (k / 300) as u16,
+            (k % 2) as u8,
+        ));
+    }
+    for k in 0..200u32 {
+        events.push(ev(100.0 + k as f64, 7, 7, 1));
+    }
+    events.reverse(); // the readout orders them itself
+    let mut p = SensorParams::ideal();
+    p.bandwidth_ev_per_s = Some(2e7);
+    p.bandwidth_burst_events = 5.0;
+    p.timestamp = TimestampMode::Truncate;
+    let (out, report) = read_out(events, &p);
+    assert_eq!(report.events_in, 10_200);
+    assert_eq!(report.events_out as usize, out.len());
+    assert_eq!(report.dropped_bandwidth + report.events_out, 10_200);
+    // The burst passes 5 + 20·100 events (± rounding of the bucket), the tail all of its 200.
+    let in_burst = out.t.iter().filter(|&&t| t < 100).count() as f64;
+    assert!((in_burst - 2005.0).abs() <= 2.0, "{in_burst}");
+    assert!(out.t.iter().filter(|&&t| t >= 100).count() >= 199);
+    // The earliest events of the burst pass: the first five, at t = 0.00 … 0.04.
+    assert_eq!(&out.x[..5], &[0, 1, 2, 3, 4]);
+    // No window of W µs holds more than depth + rate·(W + 1) events (+1: 1 µs stamps).
+    for w in [1i64, 3, 10, 50] {
+        for &t0 in &out.t {
+            let n = out.t.iter().filter(|&&t| t >= t0 && t < t0 + w).count() as f64;
+            assert!(
+                n <= 5.0 + 20.0 * (w + 1) as f64,
+                "{n} events in [{t0}, {t0}+{w})"
+            );
+        }
+    }
+    assert!(out.t.windows(2).all(|w| w[0] <= w[1]));
+}
+
+#[test]
+fn read_out_orders_quantises_and_filters() {
+    let mut p = SensorParams::ideal();
+    p.refractory_us = 3.0;
+    let events = vec![
+        ev(10.6, 1, 1, 1),
+        ev(2.5, 1, 1, 0),
+        ev(11.2, 2, 1, 1),
+        ev(4.9, 1, 1, 1), // 2.4 µs after the event at 2.5: refractory
+        ev(f64::NAN, 0, 0, 1),
+        ev(7.0, 0, 0, 3),
+    ];
+    let (out, report) = read_out(events.clone(), &p);
+    assert_eq!(out.t, vec![3, 11, 11]); // 2.5 rounds half away from zero
+    assert_eq!(out.x, vec![1, 1, 2]);
+    assert_eq!(out.p, vec![0, 1, 1]);
+    assert_eq!(report.dropped_refractory, 1);
+    assert_eq!(report.dropped_invalid, 2);
+    p.timestamp = TimestampMode::Truncate;
+    let (out, _) = read_out(events, &p);
+    assert_eq!(out.t, vec![2, 10, 11]);
+}
+
+#[test]
+fn presets_validate_and_round_trip_through_serde() {
+    for name in SensorParams::PRESETS {
+        let p = SensorParams::preset(name).expect("known preset");
+        p.validate().expect("presets are valid");
+        let text = serde_json::to_string(&p).expect("serialise");
+        let back: SensorParams = serde_json::from_str(&text).expect("deserialise");
+        assert_eq!(back, p, "{name}");
+    }
+    assert!(SensorParams::preset("gen5").is_none());
+    assert_eq!(SensorParams::gen4().threshold_on, 1.25f64.ln());
+    // A partial table takes the gen4 values; unknown keys are rejected.
+    let partial: SensorParams =
+        serde_json::from_str(r#"{"threshold_on": 0.3, "timestamp": "round"}"#).expect("partial");
+    assert_eq!(partial.threshold_on, 0.3);
+    assert_eq!(partial.cutoff_hz, SensorParams::gen4().cutoff_hz);
+    assert_eq!(partial.bandwidth_ev_per_s, None);
+    assert!(serde_json::from_str::<SensorParams>(r#"{"threshold": 0.3}"#).is_err());
+}
+
+#[test]
+fn validate_names_the_offending_key() {
+    type Spoil = Box<dyn Fn(&mut SensorParams)>;
+    let cases: Vec<(&str, Spoil)> = vec![
+        ("threshold_on", Box::new(|p| p.threshold_on = 0.0)),
+        ("threshold_off", Box::new(|p| p.threshold_off = f64::NAN)),
+        ("threshold_sigma", Box::new(|p| p.threshold_sigma = -0.1)),
+        (
+            "linlog_threshold",
+            Box::new(|p| p.linlog_threshold = f64::INFINITY),
+        ),
+        (
+            "log_eps",
+            Box::new(|p| {
+                p.linlog_threshold = 0.0;
+                p.log_eps = 0.0
+            }),
+        ),
+        ("cutoff_hz", Box::new(|p| p.cutoff_hz = -1.0)),
+        (
+            "cutoff_reference_irradiance",
+            Box::new(|p| p.cutoff_reference_irradiance = -1.0),
+        ),
+        (
+            "cutoff_dark_irradiance",
+            Box::new(|p| p.cutoff_dark_irradiance = f64::NAN),
+        ),
+        ("latency_us", Box::new(|p| p.latency_us = -5.0)),
+        ("jitter_us", Box::new(|p| p.jitter_us = f64::NAN)),
+        ("refractory_us", Box::new(|p| p.refractory_us = -1.0)),
+        ("leak_rate_hz", Box::new(|p| p.leak_rate_hz = 1e9)),
+        (
+            "shot_noise_rate_hz",
+            Box::new(|p| p.shot_noise_rate_hz = -1.0),
+        ),
+        (
+            "noise_rate_cov_decades",
+            Box::new(|p| p.noise_rate_cov_decades = 10.0),
+        ),
+        (
+            "hot_pixel_fraction",
+            Box::new(|p| p.hot_pixel_fraction = 1.5),
+        ),
+        (
+            "hot_pixel_rate_hz",
+            Box::new(|p| p.hot_pixel_rate_hz = f64::NAN),
+        ),
+        (
+            "bandwidth_ev_per_s",
+            Box::new(|p| p.bandwidth_ev_per_s = Some(0.0)),
+        ),
+        (
+            "bandwidth_burst_events",
+            Box::new(|p| p.bandwidth_burst_events = 0.5),
+        ),
+    ];
+    for (key, spoil) in cases {
+        let mut p = SensorParams::gen4();
+        spoil(&mut p);
+        match p.validate() {
+            Err(Error::Parameter { name, .. }) => assert_eq!(name, key),
+            other => panic!("{key}: {other:?}"),
+        }
+    }
+    let g = Geometry::new(10, 10);
+    assert!(SensorBand::try_new(g, 0..11, &SensorParams::gen4(), 1).is_err());
+    assert!(SensorBand::try_new(Geometry::new(70_000, 1), 0..1, &SensorParams::gen4(), 1).is_err());
+    assert!(SensorBand::try_new(g, 3..7, &SensorParams::gen4(), 1).is_ok());
+}
+
+#[test]
+fn garbage_parameters_and_inputs_do_not_panic() {
+    let garbage = [f64::NAN, f64::INFINITY, -1e300, 0.0, 1e300];
+    for (k, &v) in garbage.iter().enumerate() {
+        let p = SensorParams {
+            threshold_on: v,
+            threshold_off: v,
+            threshold_sigma: v,
+            linlog_threshold: v,
+            log_eps: v,
+            cutoff_hz: v,
+            cutoff_reference_irradiance: v,
+            cutoff_dark_irradiance: v,
+            latency_us: v,
+            jitter_us: v,
+            refractory_us: v,
+            leak_rate_hz: if v > 1e6 { 1e6 } else { v },
+            shot_noise_rate_hz: v.min(1e6),
+            noise_rate_cov_decades: v,
+            hot_pixel_fraction: v,
+            hot_pixel_rate_hz: v.min(1e6),
+            bandwidth_ev_per_s: Some(v),
+            bandwidth_burst_events: v,
+            timestamp: TimestampMode::Round,
+        };
+        let g = Geometry::new(6, 5);
+        let mut band = SensorBand::new(g, 2..9, &p, k as u64);
+        band.adapt(f64::NAN, |x, _| {
+            [f32::NAN, -1.0, f32::INFINITY, 0.0, 3.0][x as usize % 5]
+        });
+        let mut out = Vec::new();
+        let inputs = [f32::NAN, f32::INFINITY, -3.0, 0.0, 1e-30, 5.0];
+        for (s, t) in [1.0, f64::NAN, -5.0, 2.0, 2.0, f64::INFINITY, 3.0]
+            .into_iter()
+            .enumerate()
+        {
+            let changed: Vec<(u32, f32)> =
+                (0..40).map(|i| (i, inputs[(i as usize + s) % 6])).collect();
+            band.advance(t, &changed, &mut out);
+        }
+        band.noise(0.0, 1e-3, &mut out);
+        band.noise(f64::NAN, 1.0, &mut out);
+        let _ = read_out(out, &p);
+    }
+}

@@ -1,0 +1,319 @@
+//! The simulation loop: particles move with the flow, their images are rendered band by band,
+//! and each band's pixels run through the sensor model (sensor-model.md §0 pipeline).
+//!
+//! Time is sampled finely enough that no particle moves more than `step_px` between samples
+//! (and at every corner of a light pulse); between samples each pixel's irradiance varies
+//! linearly and the sensor finds exact threshold-crossing times. Bands of rows run in
+//! parallel; all randomness is per pixel or per particle, so the result does not depend on
+//! the number of threads.
+
+use super::flow::Flow;
+use super::particles::{Particle, ParticleCloud, SeedingParams};
+use super::scene::{IlluminationParams, ParticleRenderer};
+use super::sensor::{read_out, ReadoutReport, SensorBand, SensorParams, SimEvent};
+use crate::error::{Error, Result};
+use crate::event::{EventBuffer, Geometry};
+use rayon::prelude::*;
+
+/// Everything that defines a synthetic recording.
+#[derive(Debug)]
+pub struct Simulation {
+    /// Sensor size.
+    pub geometry: Geometry,
+    /// The flow carrying the particles.
+    pub flow: Box<dyn Flow>,
+    /// Particles and light sheet.
+    pub seeding: SeedingParams,
+    /// Light and static scene.
+    pub illumination: IlluminationParams,
+    /// Pixel model.
+    pub sensor: SensorParams,
+    /// Camera time of the start, µs.
+    pub start_us: i64,
+    /// Length of the recording, µs.
+    pub duration_us: i64,
+    /// Largest particle displacement between two samples, px.
+    pub step_px: f64,
+    /// Longest time between two samples, µs.
+    pub max_step_us: f64,
+    /// Random seed.
+    pub seed: u64,
+}
+
+/// A sampled particle position for the ground-truth tracks.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct TrackPoint {
+    /// Particle identity.
+    pub id: u64,
+    /// Time, µs.
+    pub t_us: f64,
+    /// Position, px.
+    pub x: f64,
+    /// Position, px.
+    pub y: f64,
+    /// Out-of-plane position, px.
+    pub z: f64,
+    /// Velocity, px/ms.
+    pub u: f64,
+    /// Velocity, px/ms.
+    pub v: f64,
+}
+
+/// The result of a run.
+#[derive(Debug)]
+pub struct SimOutput {
+    /// Events in time order, 1 µs time stamps.
+    pub events: EventBuffer,
+    /// What the readout dropped.
+    pub readout: ReadoutReport,
+    /// Particle positions in view, every `track_interval_us` (empty unless requested).
+    pub tracks: Vec<TrackPoint>,
+    /// Number of time samples simulated.
+    pub samples: u64,
+}
+
+/// Rows per band: small enough for both cores to stay busy, large enough to amortise.
+const BAND_ROWS: u32 = 32;
+
+/// One band of rows with its sensor pixels and the irradiance of its last sample.
+struct Band {
+    rows: std::ops::Range<u32>,
+    sensor: SensorBand,
+    /// Current irradiance per band pixel.
+    value: Vec<f32>,
+    /// Particle contribution being accumulated for the new sample.
+    acc: Vec<f32>,
+    mark: Vec<bool>,
+    /// Pixels with particle light at the previous sample (band indices).
+    lit: Vec<u32>,
+    touched: Vec<u32>,
+    changed: Vec<(u32, f32)>,
+    events: Vec<SimEvent>,
+}
+
+impl Simulation {
+    /// Check the parameters, naming the first bad one.
+    pub fn validate(&self) -> Result<()> {
+        self.seeding.validate()?;
+        self.illumination.validate()?;
+        self.sensor.validate()?;
+        let g = self.geometry;
+        if g.width == 0 || g.height == 0 || g.width > 4096 || g.height > 4096 {
+            return Err(Error::parameter("sensor.width/height", format!("{g} is not a sensor size ebiv simulates (1..=4096)")));
+        }
+        if !(self.duration_us > 0 && self.duration_us <= 3_600_000_000) {
+            return Err(Error::parameter("duration", format!("{} µs is out of range", self.duration_us)));
+        }
+        if !(self.step_px > 0.0 && self.step_px <= 1.0) {
+            return Err(Error::parameter("step_px", format!("{} must be in (0, 1]", self.step_px)));
+        }
+        if !(self.max_step_us >= 0.5 && self.max_step_us <= 1000.0) {
+            return Err(Error::parameter("max_step_us", format!("{} must be in [0.5, 1000]", self.max_step_us)));
+        }
+        Ok(())
+    }
+
+    /// Run the simulation. `track_interval_us` > 0 records particle tracks; `progress` is
+    /// called with the fraction done.
+    pub fn run(&self, track_interval_us: Option<f64>, progress: &(dyn Fn(f64) + Sync)) -> Result<SimOutput> {
+        self.validate()?;
+        let g = self.geometry;
+        let (w, h) = (g.width as f64, g.height as f64);
+        let t0 = self.start_us as f64;
+        let t_end = t0 + self.duration_us as f64;
+        let speed = self.flow.max_speed(w, h, t0).max(1e-6);
+        let margin = (3.0 * self.seeding.diameter + 2.0 + speed * self.max_step_us * 1e-3).ceil();
+        let mut cloud = ParticleCloud::seed(&self.seeding, w, h, margin, self.seed);
+        let mut bands: Vec<Band> = (0..g.height.div_ceil(BAND_ROWS))
+            .map(|b| {
+                let rows = b * BAND_ROWS..((b + 1) * BAND_ROWS).min(g.height);
+                let n = (rows.end - rows.start) as usize * g.width as usize;
+                Band {
+                    sensor: SensorBand::new(g, rows.clone(), &self.sensor, self.seed),
+                    rows,
+                    value: vec![0.0; n],
+                    acc: vec![0.0; n],
+                    mark: vec![false; n],
+                    lit: Vec::new(),
+                    touched: Vec::new(),
+                    changed: Vec::new(),
+                    events: Vec::new(),
+                }
+            })
+            .collect();
+
+        // The sensor starts adapted to the scene at t0.
+        let buckets = bucket_by_band(&cloud.particles, &bands, margin);
+        bands.par_iter_mut().zip(buckets.par_iter()).for_each_init(
+            || ParticleRenderer::new(&self.seeding, &self.illumination, g),
+            |renderer, (band, bucket)| {
+                band.render(renderer, bucket, &cloud.particles, &self.illumination, t0, g);
+                band.commit_lit(&self.illumination, t0, g);
+                let value = &band.value;
+                let rows = band.rows.clone();
+                band.sensor.adapt(t0, |x, y| value[(y - rows.start) as usize * g.width as usize + x as usize]);
+                band.changed.clear();
+            },
+        );
+
+        let mut tracks = Vec::new();
+        let mut next_track = t0;
+        let mut t = t0;
+        let mut samples = 0u64;
+        let flicker = self.illumination.flicker_hz > 0.0;
+        while t < t_end {
+            if let Some(interval) = track_interval_us.filter(|&i| i > 0.0) {
+                while next_track <= t {
+                    self.record_tracks(&cloud.particles, t, &mut tracks);
+                    next_track += interval;
+                }
+            }
+            let speed = self.flow.max_speed(w, h, t).max(1e-6);
+            let mut dt = (self.step_px / speed * 1e3).min(self.max_step_us);
+            if let Some(&c) = self.illumination.corners(t, t + dt).first() {
+                dt = c - t;
+            }
+            let t_next = (t + dt).min(t_end);
+            cloud.advance(self.flow.as_ref(), t, t_next);
+            t = t_next;
+            samples += 1;
+            let light = self.illumination.sheet(t);
+            let buckets = bucket_by_band(&cloud.particles, &bands, margin);
+            bands.par_iter_mut().zip(buckets.par_iter()).for_each_init(
+                || ParticleRenderer::new(&self.seeding, &self.illumination, g),
+                |renderer, (band, bucket)| {
+                    band.render_scaled(renderer, bucket, &cloud.particles, light, t, g, &self.illumination, flicker);
+                    let changed = std::mem::take(&mut band.changed);
+                    band.sensor.advance(t, &changed, &mut band.events);
+                    band.changed = changed;
+                },
+            );
+            progress((t - t0) / (t_end - t0));
+        }
+        let mut all: Vec<SimEvent> = Vec::with_capacity(bands.iter().map(|b| b.events.len()).sum());
+        for band in &mut bands {
+            band.sensor.noise(t0, t_end, &mut band.events);
+            all.append(&mut band.events);
+        }
+        let (events, readout) = read_out(all, &self.sensor);
+        Ok(SimOutput {
+            events,
+            readout,
+            tracks,
+            samples,
+        })
+    }
+
+    fn record_tracks(&self, particles: &[Particle], t: f64, out: &mut Vec<TrackPoint>) {
+        let (w, h) = (self.geometry.width as f64, self.geometry.height as f64);
+        for p in particles {
+            if p.x >= -0.5 && p.x < w - 0.5 && p.y >= -0.5 && p.y < h - 0.5 {
+                let (u, v) = self.flow.velocity(p.x, p.y, t);
+                out.push(TrackPoint {
+                    id: p.id,
+                    t_us: t,
+                    x: p.x,
+                    y: p.y,
+                    z: p.z,
+                    u,
+                    v,
+                });
+            }
+        }
+    }
+}
+
+/// Indices of the particles whose image may reach each band.
+fn bucket_by_band(particles: &[Particle], bands: &[Band], margin: f64) -> Vec<Vec<u32>> {
+    let mut buckets = vec![Vec::new(); bands.len()];
+    let reach = margin.max(1.0);
+    for (i, p) in particles.iter().enumerate() {
+        let lo = ((p.y - reach).floor().max(0.0) as u32) / BAND_ROWS;
+        let hi = ((p.y + reach).ceil().max(0.0) as u32) / BAND_ROWS;
+        for b in lo..=hi.min(bands.len() as u32 - 1) {
+            buckets[b as usize].push(i as u32);
+        }
+    }
+    buckets
+}
+
+impl Band {
+    /// Render the particles at full light into `acc`/`touched` (used for the first sample).
+    fn render(&mut self, r: &mut ParticleRenderer, bucket: &[u32], particles: &[Particle], illumination: &IlluminationParams, t: f64, g: Geometry) {
+        let light = illumination.sheet(t);
+        for &i in bucket {
+            r.add(&particles[i as usize], light, self.rows.clone(), &mut self.acc, &mut self.mark, &mut self.touched);
+        }
+        // Every pixel starts at its ambient irradiance.
+        let w = g.width as usize;
+        for (k, v) in self.value.iter_mut().enumerate() {
+            let (x, y) = ((k % w) as u32, self.rows.start + (k / w) as u32);
+            *v = illumination.ambient(x, y, t);
+        }
+    }
+
+    /// Move the accumulated particle light into `value` and remember which pixels are lit.
+    fn commit_lit(&mut self, illumination: &IlluminationParams, t: f64, g: Geometry) {
+        let w = g.width as usize;
+        for &k in &self.touched {
+            let k = k as usize;
+            let (x, y) = ((k % w) as u32, self.rows.start + (k / w) as u32);
+            self.value[k] = illumination.ambient(x, y, t) + self.acc[k];
+            self.acc[k] = 0.0;
+            self.mark[k] = false;
+        }
+        std::mem::swap(&mut self.lit, &mut self.touched);
+        self.touched.clear();
+    }
+
+    /// Render a new sample and list the pixels whose irradiance changed.
+    #[allow(clippy::too_many_arguments)]
+    fn render_scaled(
+        &mut self,
+        r: &mut ParticleRenderer,
+        bucket: &[u32],
+        particles: &[Particle],
+        light: f64,
+        t: f64,
+        g: Geometry,
+        illumination: &IlluminationParams,
+        flicker: bool,
+    ) {
+        for &i in bucket {
+            r.add(&particles[i as usize], light, self.rows.clone(), &mut self.acc, &mut self.mark, &mut self.touched);
+        }
+        let w = g.width as usize;
+        let row0 = self.rows.start;
+        let offset = row0 as usize * w;
+        self.changed.clear();
+        let update = |k: usize, value: &mut [f32], acc: &[f32], changed: &mut Vec<(u32, f32)>| {
+            let (x, y) = ((k % w) as u32, row0 + (k / w) as u32);
+            let new = illumination.ambient(x, y, t) + acc[k];
+            if new != value[k] {
+                value[k] = new;
+                changed.push(((offset + k) as u32, new));
+            }
+        };
+        if flicker {
+            for k in 0..self.value.len() {
+                update(k, &mut self.value, &self.acc, &mut self.changed);
+            }
+        } else {
+            // Pixels lit before but not now fall back to the ambient level.
+            for &k in &self.lit {
+                if !self.mark[k as usize] {
+                    update(k as usize, &mut self.value, &self.acc, &mut self.changed);
+                }
+            }
+            for &k in &self.touched {
+                update(k as usize, &mut self.value, &self.acc, &mut self.changed);
+            }
+        }
+        for &k in &self.touched {
+            self.acc[k as usize] = 0.0;
+            self.mark[k as usize] = false;
+        }
+        std::mem::swap(&mut self.lit, &mut self.touched);
+        self.touched.clear();
+    }
+}
