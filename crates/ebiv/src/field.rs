@@ -47,7 +47,8 @@ impl FieldSeries {
 
     /// Grid positions `start, start + step, …` up to `end` inclusive.
     pub fn axis(start: f64, end: f64, step: f64) -> Vec<f64> {
-        if !(step > 0.0) || !(end >= start) {
+        let valid = step > 0.0 && end >= start && (end - start) / step < 1e7;
+        if !valid {
             return vec![start];
         }
         let n = ((end - start) / step + 1e-9).floor() as usize + 1;

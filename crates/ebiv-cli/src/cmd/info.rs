@@ -1,9 +1,9 @@
 //! `ebiv info`: what a recording holds.
 
 use crate::input::InputArgs;
-use ebiv::units::format_us;
 use clap::Args;
 use ebiv::stats::RecordingStats;
+use ebiv::units::format_us;
 use std::path::PathBuf;
 
 /// Print format, sensor, event counts, time range, rates, triggers and every warning.

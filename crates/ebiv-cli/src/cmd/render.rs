@@ -1,9 +1,9 @@
 //! `ebiv render`: the first picture of a recording.
 
 use crate::input::InputArgs;
-use ebiv::units::format_us;
 use clap::Args;
 use ebiv::render::{save_png, time_coded_image, upscale, EventRateMap};
+use ebiv::units::format_us;
 use ebiv::{EventBuffer, Geometry, PolaritySelection};
 use std::path::{Path, PathBuf};
 

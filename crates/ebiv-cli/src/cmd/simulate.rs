@@ -57,9 +57,14 @@ pub fn run(args: &SimulateArgs) -> Result<(), ebiv::Error> {
             std::fs::read_to_string(path).map_err(|e| ebiv::Error::io(path, e))?,
             path.display().to_string(),
         ),
-        (None, None) => return Err(ebiv::Error::parameter("scenario", "give a scenario file or --example NAME")),
+        (None, None) => {
+            return Err(ebiv::Error::parameter(
+                "scenario",
+                "give a scenario file or --example NAME",
+            ))
+        }
     };
-    let mut scenario = Scenario::from_toml(&text, &origin)?;
+    let mut scenario = parse_scenario(&text, &origin)?;
     if let Some(dir) = args.scenario.as_ref().and_then(|p| p.parent()) {
         // Gridded flow files are named relative to the scenario file.
         scenario.flow = scenario.flow.with_base_dir(dir);
@@ -74,7 +79,10 @@ pub fn run(args: &SimulateArgs) -> Result<(), ebiv::Error> {
     let out_format = write::format_for_path(&args.output)?;
     let bar = crate::progress::fraction_bar("simulating");
     let started = Instant::now();
-    let track_interval = args.tracks.as_ref().map(|_| scenario.truth.track_interval as f64);
+    let track_interval = args
+        .tracks
+        .as_ref()
+        .map(|_| scenario.truth.track_interval as f64);
     let output = sim.run(track_interval, &|f| bar.set_position((f * 1000.0) as u64))?;
     bar.finish_and_clear();
     let seconds = started.elapsed().as_secs_f64();
@@ -95,7 +103,10 @@ pub fn run(args: &SimulateArgs) -> Result<(), ebiv::Error> {
     println!("wrote {}", args.output.display());
     let r = &output.readout;
     if r.dropped_bandwidth > 0 {
-        println!("readout dropped {} events above the bandwidth limit", r.dropped_bandwidth);
+        println!(
+            "readout dropped {} events above the bandwidth limit",
+            r.dropped_bandwidth
+        );
     }
     if let Some(path) = &args.truth {
         let end = scenario.start + scenario.duration;
@@ -107,16 +118,36 @@ pub fn run(args: &SimulateArgs) -> Result<(), ebiv::Error> {
             end,
             scenario.truth.interval,
         );
-        match path.extension().and_then(|e| e.to_str()).map(str::to_ascii_lowercase).as_deref() {
+        match path
+            .extension()
+            .and_then(|e| e.to_str())
+            .map(str::to_ascii_lowercase)
+            .as_deref()
+        {
             Some("csv") => ebiv::export::write_field_csv(&field, path)?,
             Some("nc") => ebiv::export::write_field_netcdf(&field, path)?,
-            _ => return Err(ebiv::Error::parameter("truth", "use a .nc or .csv file name")),
+            _ => {
+                return Err(ebiv::Error::parameter(
+                    "truth",
+                    "use a .nc or .csv file name",
+                ))
+            }
         }
-        println!("wrote {} (true velocity, {} fields of {}x{} vectors)", path.display(), field.t_us.len(), field.x.len(), field.y.len());
+        println!(
+            "wrote {} (true velocity, {} fields of {}x{} vectors)",
+            path.display(),
+            field.t_us.len(),
+            field.x.len(),
+            field.y.len()
+        );
     }
     if let Some(path) = &args.tracks {
         ebiv::export::write_tracks_csv(&output.tracks, path)?;
-        println!("wrote {} ({} track points)", path.display(), output.tracks.len());
+        println!(
+            "wrote {} ({} track points)",
+            path.display(),
+            output.tracks.len()
+        );
     }
     Ok(())
 }
@@ -124,6 +155,21 @@ pub fn run(args: &SimulateArgs) -> Result<(), ebiv::Error> {
 fn example_text(name: &str) -> Result<&'static str, ebiv::Error> {
     Scenario::example(name).ok_or_else(|| {
         let names: Vec<&str> = EXAMPLES.iter().map(|e| e.0).collect();
-        ebiv::Error::parameter("example", format!("`{name}` is not one of {}", names.join(", ")))
+        ebiv::Error::parameter(
+            "example",
+            format!("`{name}` is not one of {}", names.join(", ")),
+        )
+    })
+}
+
+/// Parse a TOML scenario; errors name the file and line.
+pub fn parse_scenario(text: &str, origin: &str) -> Result<Scenario, ebiv::Error> {
+    toml::from_str(text).map_err(|e| ebiv::Error::Parse {
+        context: origin.to_string(),
+        line: e
+            .span()
+            .map(|s| text[..s.start.min(text.len())].lines().count().max(1) as u64)
+            .unwrap_or(0),
+        message: e.message().to_string(),
     })
 }

@@ -17,7 +17,12 @@ pub fn write_tracks_csv(
     let mut w = std::io::BufWriter::new(std::fs::File::create(&temp).map_err(io)?);
     writeln!(w, "id,t_us,x,y,z,u,v").map_err(io)?;
     for p in tracks {
-        writeln!(w, "{},{},{},{},{},{},{}", p.id, p.t_us, p.x, p.y, p.z, p.u, p.v).map_err(io)?;
+        writeln!(
+            w,
+            "{},{},{},{},{},{},{}",
+            p.id, p.t_us, p.x, p.y, p.z, p.u, p.v
+        )
+        .map_err(io)?;
     }
     w.flush().map_err(io)?;
     drop(w);

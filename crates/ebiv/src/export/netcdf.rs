@@ -45,7 +45,8 @@ pub fn write_field_netcdf(field: &FieldSeries, path: &Path) -> Result<()> {
     for (var, key, value) in var_attrs {
         ds.add_var_attr_string(var, key, value).map_err(err)?;
     }
-    ds.add_var_attr_string("y", "positive", "down").map_err(err)?;
+    ds.add_var_attr_string("y", "positive", "down")
+        .map_err(err)?;
     ds.add_var_attr_string("u", "long_name", "velocity along x (to the right)")
         .map_err(err)?;
     ds.add_var_attr_string("v", "long_name", "velocity along y (downwards, image rows)")
@@ -56,7 +57,8 @@ pub fn write_field_netcdf(field: &FieldSeries, path: &Path) -> Result<()> {
         ds.add_var_attr_string(var, "comment", "NaN where no valid vector")
             .map_err(err)?;
     }
-    ds.add_global_attr_string("Conventions", "CF-1.8").map_err(err)?;
+    ds.add_global_attr_string("Conventions", "CF-1.8")
+        .map_err(err)?;
     ds.add_global_attr_string(
         "axis_convention",
         "image coordinates: x to the right, y down, pixel centres at integers",
@@ -108,11 +110,14 @@ mod tests {
         let path = dir.path().join("f.nc");
         write_field_netcdf(&f, &path).unwrap();
         let mut r = netcdf3::FileReader::open(&path).unwrap();
-        let ds = r.data_set().clone();
+        let ds = r.data_set();
         assert_eq!(ds.dim_size("time"), Some(2));
         assert_eq!(ds.dim_size("y"), Some(2));
         assert_eq!(ds.dim_size("x"), Some(3));
-        assert_eq!(ds.get_global_attr_as_string("source_file").as_deref(), Some("a.raw"));
+        assert_eq!(
+            ds.get_global_attr_as_string("source_file").as_deref(),
+            Some("a.raw")
+        );
         let u = r.read_var_f32("u").unwrap();
         assert_eq!(u.len(), 12);
         assert!(u[3].is_nan());

@@ -50,13 +50,41 @@ impl SeedingParams {
     /// Check every value, naming the offending key.
     pub fn validate(&self) -> Result<()> {
         let checks = [
-            ("particles.density", self.density, self.density > 0.0 && self.density <= 1.0),
-            ("particles.diameter", self.diameter, self.diameter > 0.1 && self.diameter <= 50.0),
-            ("particles.diameter_sigma", self.diameter_sigma, self.diameter_sigma >= 0.0),
-            ("particles.brightness", self.brightness, self.brightness > 0.0),
-            ("particles.brightness_sigma", self.brightness_sigma, self.brightness_sigma >= 0.0),
-            ("particles.sheet_thickness", self.sheet_thickness, self.sheet_thickness > 0.0),
-            ("particles.out_of_plane_sigma", self.out_of_plane_sigma, self.out_of_plane_sigma >= 0.0),
+            (
+                "particles.density",
+                self.density,
+                self.density >= 0.0 && self.density <= 1.0,
+            ),
+            (
+                "particles.diameter",
+                self.diameter,
+                self.diameter > 0.1 && self.diameter <= 50.0,
+            ),
+            (
+                "particles.diameter_sigma",
+                self.diameter_sigma,
+                self.diameter_sigma >= 0.0,
+            ),
+            (
+                "particles.brightness",
+                self.brightness,
+                self.brightness > 0.0,
+            ),
+            (
+                "particles.brightness_sigma",
+                self.brightness_sigma,
+                self.brightness_sigma >= 0.0,
+            ),
+            (
+                "particles.sheet_thickness",
+                self.sheet_thickness,
+                self.sheet_thickness > 0.0,
+            ),
+            (
+                "particles.out_of_plane_sigma",
+                self.out_of_plane_sigma,
+                self.out_of_plane_sigma >= 0.0,
+            ),
         ];
         for (name, value, ok) in checks {
             if !ok || !value.is_finite() {
@@ -186,7 +214,11 @@ impl ParticleCloud {
     /// moved inwards by a random part of one step's travel, so a steady flow keeps a uniform
     /// density.
     fn inflow_position(&self, rng: &mut Rng, flow: &dyn Flow, t_us: f64, dt_ms: f64) -> (f64, f64) {
-        let (w, h, m) = (self.width + 2.0 * self.margin, self.height + 2.0 * self.margin, self.margin);
+        let (w, h, m) = (
+            self.width + 2.0 * self.margin,
+            self.height + 2.0 * self.margin,
+            self.margin,
+        );
         let vmax = flow.max_speed(self.width, self.height, t_us).max(1e-9) * 1.5;
         for _ in 0..1000 {
             let s = rng.range(0.0, 2.0 * (w + h));
@@ -281,7 +313,10 @@ mod tests {
         assert_eq!(cloud.particles.len(), n0);
         let expected = 0.01 * 200.0 * 100.0;
         for n in [before, after] {
-            assert!((n as f64 - expected).abs() < 4.0 * expected.sqrt(), "{n} vs {expected}");
+            assert!(
+                (n as f64 - expected).abs() < 4.0 * expected.sqrt(),
+                "{n} vs {expected}"
+            );
         }
     }
 

@@ -4,10 +4,11 @@
 use super::flow::FlowSpec;
 use super::particles::SeedingParams;
 use super::scene::IlluminationParams;
-use super::sensor::SensorParams;
+use super::sensor::{SensorParams, TimestampMode};
 use super::simulation::Simulation;
 use crate::error::{Error, Result};
 use crate::event::Geometry;
+use std::collections::BTreeMap;
 
 /// A scenario as written in TOML. Durations accept units (`"20ms"`, `"1.5s"`; numbers are µs).
 #[derive(Debug, Clone, serde::Deserialize)]
@@ -54,9 +55,19 @@ pub struct SensorSection {
     /// `ideal`, `gen4` or `noisy`.
     #[serde(default = "default_preset")]
     pub preset: String,
-    /// Overrides of the preset's parameters.
+    /// Overrides of the preset's parameters, by [`SensorParams`] field name.
     #[serde(flatten)]
-    pub overrides: toml::Table,
+    pub overrides: BTreeMap<String, ParamValue>,
+}
+
+/// A value in the `[sensor]` section.
+#[derive(Debug, Clone, PartialEq, serde::Deserialize)]
+#[serde(untagged)]
+pub enum ParamValue {
+    /// A number.
+    Number(f64),
+    /// A word (`round`, `truncate`, `none`).
+    Text(String),
 }
 
 fn default_preset() -> String {
@@ -108,9 +119,21 @@ impl Default for TruthSpec {
 
 /// The ready scenarios: name, one-line description, TOML.
 pub const EXAMPLES: [(&str, &str, &str); 4] = [
-    ("uniform", "uniform flow at 2 px/ms, 640x480, gen4 sensor", include_str!("examples/uniform.toml")),
-    ("turntable", "solid-body rotation (a turntable), 640x480", include_str!("examples/turntable.toml")),
-    ("vortex", "Lamb-Oseen vortex in a uniform stream, 640x480", include_str!("examples/vortex.toml")),
+    (
+        "uniform",
+        "uniform flow at 2 px/ms, 640x480, gen4 sensor",
+        include_str!("examples/uniform.toml"),
+    ),
+    (
+        "turntable",
+        "solid-body rotation (a turntable), 640x480",
+        include_str!("examples/turntable.toml"),
+    ),
+    (
+        "vortex",
+        "Lamb-Oseen vortex in a uniform stream, 640x480",
+        include_str!("examples/vortex.toml"),
+    ),
     (
         "shear-layer",
         "Couette shear with a bright wall at the bottom, 640x480",
@@ -124,34 +147,21 @@ impl Scenario {
         EXAMPLES.iter().find(|e| e.0 == name).map(|e| e.2)
     }
 
-    /// Parse a scenario; `origin` names the file in messages.
-    pub fn from_toml(text: &str, origin: &str) -> Result<Scenario> {
-        toml::from_str(text).map_err(|e| Error::Parse {
-            context: origin.to_string(),
-            line: e
-                .span()
-                .map(|s| text[..s.start.min(text.len())].lines().count().max(1) as u64)
-                .unwrap_or(0),
-            message: e.message().to_string(),
-        })
-    }
-
     /// The sensor parameters: the preset with the overrides applied, validated.
     pub fn sensor_params(&self) -> Result<SensorParams> {
         let preset = SensorParams::preset(&self.sensor.preset).ok_or_else(|| {
             Error::parameter(
                 "sensor.preset",
-                format!("`{}` is not a preset; use ideal, gen4 or noisy", self.sensor.preset),
+                format!(
+                    "`{}` is not a preset; use ideal, gen4 or noisy",
+                    self.sensor.preset
+                ),
             )
         })?;
-        let mut table = toml::Table::try_from(&preset)
-            .map_err(|e| Error::parameter("sensor", e.to_string()))?;
-        for (k, v) in &self.sensor.overrides {
-            table.insert(k.clone(), v.clone());
+        let mut params = preset;
+        for (key, value) in &self.sensor.overrides {
+            apply_override(&mut params, key, value)?;
         }
-        let params: SensorParams = table
-            .try_into()
-            .map_err(|e: toml::de::Error| Error::parameter("sensor", e.message().to_string()))?;
         params.validate()?;
         Ok(params)
     }
@@ -175,28 +185,90 @@ impl Scenario {
     }
 }
 
+/// Set the [`SensorParams`] field named `key`.
+fn apply_override(p: &mut SensorParams, key: &str, value: &ParamValue) -> Result<()> {
+    let name = format!("sensor.{key}");
+    let number = || match value {
+        ParamValue::Number(n) => Ok(*n),
+        ParamValue::Text(t) => Err(Error::parameter(&name, format!("`{t}` is not a number"))),
+    };
+    let field: &mut f64 = match key {
+        "threshold_on" => &mut p.threshold_on,
+        "threshold_off" => &mut p.threshold_off,
+        "threshold_sigma" => &mut p.threshold_sigma,
+        "linlog_threshold" => &mut p.linlog_threshold,
+        "log_eps" => &mut p.log_eps,
+        "cutoff_hz" => &mut p.cutoff_hz,
+        "cutoff_reference_irradiance" => &mut p.cutoff_reference_irradiance,
+        "cutoff_dark_irradiance" => &mut p.cutoff_dark_irradiance,
+        "latency_us" => &mut p.latency_us,
+        "jitter_us" => &mut p.jitter_us,
+        "refractory_us" => &mut p.refractory_us,
+        "leak_rate_hz" => &mut p.leak_rate_hz,
+        "shot_noise_rate_hz" => &mut p.shot_noise_rate_hz,
+        "noise_rate_cov_decades" => &mut p.noise_rate_cov_decades,
+        "hot_pixel_fraction" => &mut p.hot_pixel_fraction,
+        "hot_pixel_rate_hz" => &mut p.hot_pixel_rate_hz,
+        "bandwidth_burst_events" => &mut p.bandwidth_burst_events,
+        "bandwidth_ev_per_s" => {
+            p.bandwidth_ev_per_s = match value {
+                ParamValue::Text(t) if t == "none" => None,
+                _ => Some(number()?),
+            };
+            return Ok(());
+        }
+        "timestamp" => {
+            p.timestamp = match value {
+                ParamValue::Text(t) if t == "round" => TimestampMode::Round,
+                ParamValue::Text(t) if t == "truncate" => TimestampMode::Truncate,
+                _ => return Err(Error::parameter(&name, "use \"round\" or \"truncate\"")),
+            };
+            return Ok(());
+        }
+        _ => {
+            return Err(Error::parameter(
+                &name,
+                "is not a sensor parameter (see `SensorParams` in the documentation, or `ebiv simulate --print-example uniform`)",
+            ))
+        }
+    };
+    *field = number()?;
+    Ok(())
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
 
+    fn parse(text: &str, origin: &str) -> Result<Scenario> {
+        toml::from_str(text).map_err(|e| Error::parameter(origin, e.to_string()))
+    }
+
     #[test]
     fn every_example_parses_and_builds() {
         for (name, _, text) in EXAMPLES {
-            let s = Scenario::from_toml(text, name).unwrap_or_else(|e| panic!("{name}: {e}"));
+            let s = parse(text, name).unwrap_or_else(|e| panic!("{name}: {e}"));
             s.simulation().unwrap_or_else(|e| panic!("{name}: {e}"));
         }
     }
 
     #[test]
     fn overrides_apply_and_typos_are_named() {
-        let text = Scenario::example("uniform").unwrap().replace("preset = \"gen4\"", "preset = \"ideal\"\nthreshold_on = 0.3");
-        let s = Scenario::from_toml(&text, "t").unwrap();
+        let text = Scenario::example("uniform").unwrap().replace(
+            "preset = \"gen4\"",
+            "preset = \"ideal\"\nthreshold_on = 0.3",
+        );
+        let s = parse(&text, "t").unwrap();
         assert_eq!(s.sensor_params().unwrap().threshold_on, 0.3);
         let typo = text.replace("threshold_on = 0.3", "treshold_on = 0.3");
-        let err = Scenario::from_toml(&typo, "t").unwrap().sensor_params().unwrap_err().to_string();
+        let err = parse(&typo, "t")
+            .unwrap()
+            .sensor_params()
+            .unwrap_err()
+            .to_string();
         assert!(err.contains("treshold_on"), "{err}");
         let bad = text.replace("duration = ", "duration = \"ten\" #");
-        let err = Scenario::from_toml(&bad, "s.toml").unwrap_err().to_string();
-        assert!(err.contains("s.toml") && err.contains("not a time"), "{err}");
+        let err = parse(&bad, "s.toml").unwrap_err().to_string();
+        assert!(err.contains("not a time"), "{err}");
     }
 }

@@ -80,7 +80,12 @@ impl Default for IlluminationParams {
 impl IlluminationParams {
     /// Check every value, naming the offending key.
     pub fn validate(&self) -> Result<()> {
-        let bad = |k: &str, v: f64| Err(Error::parameter(format!("illumination.{k}"), format!("{v} is out of range")));
+        let bad = |k: &str, v: f64| {
+            Err(Error::parameter(
+                format!("illumination.{k}"),
+                format!("{v} is out of range"),
+            ))
+        };
         if !(self.background > 0.0 && self.background.is_finite()) {
             return bad("background", self.background);
         }
@@ -92,7 +97,8 @@ impl IlluminationParams {
                 return bad("duty", self.duty);
             }
             let period = 1e6 / self.frequency_hz;
-            if !(self.edge_us > 0.0 && 2.0 * self.edge_us < self.duty.min(1.0 - self.duty) * period) {
+            if !(self.edge_us > 0.0 && 2.0 * self.edge_us < self.duty.min(1.0 - self.duty) * period)
+            {
                 return bad("edge_us", self.edge_us);
             }
         }
@@ -139,7 +145,12 @@ impl IlluminationParams {
         let last = ((t1_us - self.phase_us) / period).ceil() as i64;
         for k in first..=last {
             let start = self.phase_us + k as f64 * period;
-            for c in [start, start + self.edge_us, start + on, start + on + self.edge_us] {
+            for c in [
+                start,
+                start + self.edge_us,
+                start + on,
+                start + on + self.edge_us,
+            ] {
                 if c > t0_us && c <= t1_us {
                     out.push(c);
                 }
@@ -158,7 +169,8 @@ impl IlluminationParams {
             }
         }
         let flicker = if self.flicker_hz > 0.0 {
-            1.0 + self.flicker_amplitude * (std::f64::consts::TAU * self.flicker_hz * t_us * 1e-6).sin()
+            1.0 + self.flicker_amplitude
+                * (std::f64::consts::TAU * self.flicker_hz * t_us * 1e-6).sin()
         } else {
             1.0
         };
@@ -186,7 +198,11 @@ pub struct ParticleRenderer<'a> {
 
 impl<'a> ParticleRenderer<'a> {
     /// A renderer for a sensor of `geometry`.
-    pub fn new(seeding: &'a SeedingParams, illumination: &'a IlluminationParams, geometry: Geometry) -> Self {
+    pub fn new(
+        seeding: &'a SeedingParams,
+        illumination: &'a IlluminationParams,
+        geometry: Geometry,
+    ) -> Self {
         ParticleRenderer {
             seeding,
             illumination,
@@ -288,14 +304,28 @@ mod tests {
         let mut acc = vec![0f32; 400];
         let mut mark = vec![false; 400];
         let mut touched = Vec::new();
-        r.add(&particle(10.0, 10.0), 1.0, 0..20, &mut acc, &mut mark, &mut touched);
+        r.add(
+            &particle(10.0, 10.0),
+            1.0,
+            0..20,
+            &mut acc,
+            &mut mark,
+            &mut touched,
+        );
         assert!((acc[10 * 20 + 10] - 20.0).abs() < 1e-4);
         // The integral of the spot is peak · (√(2π) σ)² / (pixel fraction)²: symmetric, and
         // moving the particle by a sub-pixel amount keeps the total.
         let total: f32 = acc.iter().sum();
         let mut acc2 = vec![0f32; 400];
         let mut mark2 = vec![false; 400];
-        r.add(&particle(10.3, 9.6), 1.0, 0..20, &mut acc2, &mut mark2, &mut Vec::new());
+        r.add(
+            &particle(10.3, 9.6),
+            1.0,
+            0..20,
+            &mut acc2,
+            &mut mark2,
+            &mut Vec::new(),
+        );
         let total2: f32 = acc2.iter().sum();
         assert!((total - total2).abs() < 1e-3 * total, "{total} {total2}");
         assert!((acc[10 * 20 + 9] - acc[10 * 20 + 11]).abs() < 1e-5);
@@ -305,7 +335,13 @@ mod tests {
     fn band_rows_and_walls_clip_the_image() {
         let seeding = SeedingParams::default();
         let illum = IlluminationParams {
-            walls: vec![Wall { x: 0.0, y: 0.0, width: 10.0, height: 20.0, brightness: 50.0 }],
+            walls: vec![Wall {
+                x: 0.0,
+                y: 0.0,
+                width: 10.0,
+                height: 20.0,
+                brightness: 50.0,
+            }],
             ..Default::default()
         };
         let g = Geometry::new(20, 20);
@@ -313,8 +349,18 @@ mod tests {
         let mut acc = vec![0f32; 5 * 20];
         let mut mark = vec![false; 5 * 20];
         let mut touched = Vec::new();
-        r.add(&particle(10.0, 11.0), 1.0, 10..15, &mut acc, &mut mark, &mut touched);
-        assert!(touched.iter().all(|&k| k % 20 >= 10), "nothing behind the wall");
+        r.add(
+            &particle(10.0, 11.0),
+            1.0,
+            10..15,
+            &mut acc,
+            &mut mark,
+            &mut touched,
+        );
+        assert!(
+            touched.iter().all(|&k| k % 20 >= 10),
+            "nothing behind the wall"
+        );
         assert!(acc[20 + 10] > 19.0, "row 11 is row 1 of the band");
         assert_eq!(illum.ambient(3, 3, 0.0), 50.0);
         assert_eq!(illum.ambient(15, 3, 0.0), 1.0);

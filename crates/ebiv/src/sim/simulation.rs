@@ -99,23 +99,39 @@ impl Simulation {
         self.sensor.validate()?;
         let g = self.geometry;
         if g.width == 0 || g.height == 0 || g.width > 4096 || g.height > 4096 {
-            return Err(Error::parameter("sensor.width/height", format!("{g} is not a sensor size ebiv simulates (1..=4096)")));
+            return Err(Error::parameter(
+                "sensor.width/height",
+                format!("{g} is not a sensor size ebiv simulates (1..=4096)"),
+            ));
         }
         if !(self.duration_us > 0 && self.duration_us <= 3_600_000_000) {
-            return Err(Error::parameter("duration", format!("{} µs is out of range", self.duration_us)));
+            return Err(Error::parameter(
+                "duration",
+                format!("{} µs is out of range", self.duration_us),
+            ));
         }
         if !(self.step_px > 0.0 && self.step_px <= 1.0) {
-            return Err(Error::parameter("step_px", format!("{} must be in (0, 1]", self.step_px)));
+            return Err(Error::parameter(
+                "step_px",
+                format!("{} must be in (0, 1]", self.step_px),
+            ));
         }
         if !(self.max_step_us >= 0.5 && self.max_step_us <= 1000.0) {
-            return Err(Error::parameter("max_step_us", format!("{} must be in [0.5, 1000]", self.max_step_us)));
+            return Err(Error::parameter(
+                "max_step_us",
+                format!("{} must be in [0.5, 1000]", self.max_step_us),
+            ));
         }
         Ok(())
     }
 
     /// Run the simulation. `track_interval_us` > 0 records particle tracks; `progress` is
     /// called with the fraction done.
-    pub fn run(&self, track_interval_us: Option<f64>, progress: &(dyn Fn(f64) + Sync)) -> Result<SimOutput> {
+    pub fn run(
+        &self,
+        track_interval_us: Option<f64>,
+        progress: &(dyn Fn(f64) + Sync),
+    ) -> Result<SimOutput> {
         self.validate()?;
         let g = self.geometry;
         let (w, h) = (g.width as f64, g.height as f64);
@@ -147,11 +163,20 @@ impl Simulation {
         bands.par_iter_mut().zip(buckets.par_iter()).for_each_init(
             || ParticleRenderer::new(&self.seeding, &self.illumination, g),
             |renderer, (band, bucket)| {
-                band.render(renderer, bucket, &cloud.particles, &self.illumination, t0, g);
+                band.render(
+                    renderer,
+                    bucket,
+                    &cloud.particles,
+                    &self.illumination,
+                    t0,
+                    g,
+                );
                 band.commit_lit(&self.illumination, t0, g);
                 let value = &band.value;
                 let rows = band.rows.clone();
-                band.sensor.adapt(t0, |x, y| value[(y - rows.start) as usize * g.width as usize + x as usize]);
+                band.sensor.adapt(t0, |x, y| {
+                    value[(y - rows.start) as usize * g.width as usize + x as usize]
+                });
                 band.changed.clear();
             },
         );
@@ -182,7 +207,16 @@ impl Simulation {
             bands.par_iter_mut().zip(buckets.par_iter()).for_each_init(
                 || ParticleRenderer::new(&self.seeding, &self.illumination, g),
                 |renderer, (band, bucket)| {
-                    band.render_scaled(renderer, bucket, &cloud.particles, light, t, g, &self.illumination, flicker);
+                    band.render_scaled(
+                        renderer,
+                        bucket,
+                        &cloud.particles,
+                        light,
+                        t,
+                        g,
+                        &self.illumination,
+                        flicker,
+                    );
                     let changed = std::mem::take(&mut band.changed);
                     band.sensor.advance(t, &changed, &mut band.events);
                     band.changed = changed;
@@ -239,10 +273,25 @@ fn bucket_by_band(particles: &[Particle], bands: &[Band], margin: f64) -> Vec<Ve
 
 impl Band {
     /// Render the particles at full light into `acc`/`touched` (used for the first sample).
-    fn render(&mut self, r: &mut ParticleRenderer, bucket: &[u32], particles: &[Particle], illumination: &IlluminationParams, t: f64, g: Geometry) {
+    fn render(
+        &mut self,
+        r: &mut ParticleRenderer,
+        bucket: &[u32],
+        particles: &[Particle],
+        illumination: &IlluminationParams,
+        t: f64,
+        g: Geometry,
+    ) {
         let light = illumination.sheet(t);
         for &i in bucket {
-            r.add(&particles[i as usize], light, self.rows.clone(), &mut self.acc, &mut self.mark, &mut self.touched);
+            r.add(
+                &particles[i as usize],
+                light,
+                self.rows.clone(),
+                &mut self.acc,
+                &mut self.mark,
+                &mut self.touched,
+            );
         }
         // Every pixel starts at its ambient irradiance.
         let w = g.width as usize;
@@ -280,7 +329,14 @@ impl Band {
         flicker: bool,
     ) {
         for &i in bucket {
-            r.add(&particles[i as usize], light, self.rows.clone(), &mut self.acc, &mut self.mark, &mut self.touched);
+            r.add(
+                &particles[i as usize],
+                light,
+                self.rows.clone(),
+                &mut self.acc,
+                &mut self.mark,
+                &mut self.touched,
+            );
         }
         let w = g.width as usize;
         let row0 = self.rows.start;

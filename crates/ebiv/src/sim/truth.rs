@@ -38,7 +38,10 @@ pub fn velocity_field(
             }
         }
     }
-    field.attributes.push(("content".into(), "ground truth: Eulerian velocity of the simulated flow".into()));
+    field.attributes.push((
+        "content".into(),
+        "ground truth: Eulerian velocity of the simulated flow".into(),
+    ));
     field.attributes.push(("flow".into(), format!("{flow:?}")));
     field
 }

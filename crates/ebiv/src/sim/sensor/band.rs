@@ -35,11 +35,16 @@ pub(super) fn sub_seed(seed: u64, tag: u64) -> u64 {
 ///
 /// Bands run in parallel; every random number a pixel uses comes from a generator indexed by
 /// its pixel index in the full sensor (noise by its row), so splitting the sensor into bands
-/// changes nothing. Only pixels in the *active set* cost work per step: those whose irradiance
-/// changed, that are blind, or whose low-pass state may still reach a threshold. A pixel whose
-/// input and low-pass output both lie strictly between its two threshold levels cannot fire
-/// while its input is constant; it is frozen and its exponential relaxation applied in one
-/// piece when it is next touched.
+/// changes nothing.
+///
+/// Work is proportional to changes and events, not to pixels × steps (sensor-model.md §3):
+/// * a pixel whose input and low-pass output both lie strictly between its two threshold
+///   levels cannot fire while its input is constant: it leaves the *active set*, frozen, and
+///   its exponential relaxation is applied in one piece when its input next changes;
+/// * an active pixel with constant input sleeps until its next crossing (computed from the
+///   exponential, as IEBCS does) or the end of its blind time; visiting it costs one
+///   comparison per step until then;
+/// * pixels whose irradiance changed are updated every step (exact low-pass over the step).
 #[derive(Debug, Clone)]
 pub struct SensorBand {
     pub(super) geometry: Geometry,
@@ -47,6 +52,8 @@ pub struct SensorBand {
     pixels: Vec<Pixel>,
     /// Irradiance samples of the pixels marked changed in `active`.
     pending: Vec<f32>,
+    /// Per active pixel, the time before which it need not be visited unless changed.
+    wake: Vec<f64>,
     active: ActiveSet,
     t_now: f64,
     pub(super) response: Response,
@@ -111,6 +118,7 @@ impl SensorBand {
             rows,
             pixels,
             pending: vec![0.0; n],
+            wake: vec![f64::NEG_INFINITY; n],
             active: ActiveSet::new(n),
             t_now: 0.0,
             response,
@@ -210,7 +218,6 @@ impl SensorBand {
             self.pending[local as usize] = clean_irradiance(irr);
             self.active.insert_changed(local as usize);
         }
-        self.updates += self.active.len() as u64;
         let mut ctx = StepContext {
             response: &self.response,
             jitter_seed: sub_seed(self.seed, TAG_JITTER),
@@ -220,11 +227,23 @@ impl SensorBand {
             counters: &mut self.counters,
             out,
         };
-        let (pixels, pending) = (&mut self.pixels, &self.pending);
+        let (pixels, pending, wake) = (&mut self.pixels, &self.pending, &mut self.wake);
+        let mut updates = 0;
         self.active.retain(|local, changed| {
+            if !changed && wake[local] > tb {
+                return true;
+            }
+            updates += 1;
             let new_irr = changed.then(|| pending[local]);
-            ctx.step(&mut pixels[local], local as u32, ta, tb, new_irr)
+            match ctx.step(&mut pixels[local], local as u32, ta, tb, new_irr) {
+                Some(next) => {
+                    wake[local] = next;
+                    true
+                }
+                None => false,
+            }
         });
+        self.updates += updates;
         self.t_now = tb;
     }
 
@@ -238,8 +257,8 @@ impl SensorBand {
         self.active.len()
     }
 
-    /// Pixel steps computed so far (the size of the active set summed over `advance` calls):
-    /// the measure of the simulator's work.
+    /// Pixel updates computed so far by `advance` (each an exact low-pass step of one
+    /// pixel): the measure of the simulator's work.
     pub fn pixel_updates(&self) -> u64 {
         self.updates
     }
@@ -260,8 +279,9 @@ impl SensorBand {
         Some((px.theta_on, px.theta_off))
     }
 
-    /// The low-passed log intensity and the reference level of pixel `(x, y)`, brought to
-    /// the band's current time.
+    /// The low-passed log intensity of pixel `(x, y)` at the band's current time, and its
+    /// reference level as of its last update (a pixel asleep until its next event or the end
+    /// of its blind time is updated when visited).
     pub fn log_state(&self, x: u32, y: u32) -> Option<(f64, f64)> {
         let px = self.pixel(x, y)?;
         let l = if px.t < self.t_now && self.response.low_pass() {

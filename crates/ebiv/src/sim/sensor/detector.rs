@@ -104,7 +104,12 @@ const MAX_CROSSINGS_PER_STEP: u32 = 1 << 20;
 const TIE: f64 = 1e-9;
 
 impl StepContext<'_> {
-    /// Advance one active pixel over `[ta, tb]`; returns whether it stays active.
+    /// Advance one active pixel from its own time to `tb`; its input is constant up to `ta`
+    /// and, with `new_irr`, ramps to the new sample over `[ta, tb]`.
+    ///
+    /// Returns `None` when the pixel leaves the active set (it cannot fire while its input is
+    /// constant), else the time before which it need not be visited again unless its input
+    /// changes: its blind time's end, the next crossing of its relaxation, or −∞.
     #[inline]
     pub(super) fn step(
         &mut self,
@@ -113,17 +118,50 @@ impl StepContext<'_> {
         ta: f64,
         tb: f64,
         new_irr: Option<f32>,
-    ) -> bool {
+    ) -> Option<f64> {
         let r = self.response;
-        if px.t < ta {
-            // A frozen pixel: apply its relaxation since it was last touched (no crossing
-            // can have happened, see `SensorBand`).
-            if r.low_pass() {
-                let omega = r.omega(px.irr as f64);
-                px.l = Curve::low_pass(px.t, ta, px.l, px.u, px.u, omega).value(ta);
-            }
-            px.t = ta;
+        if new_irr.is_some() && px.t < ta {
+            // A pixel frozen or asleep since `px.t`: its constant-input stretch first.
+            self.segment(px, local, ta, None);
         }
+        self.segment(px, local, tb, new_irr);
+
+        if px.blind() {
+            return Some(px.release);
+        }
+        let omega = r.omega(px.irr as f64);
+        if !r.low_pass() || omega <= 0.0 {
+            return None;
+        }
+        let hi = px.l_ref + px.theta_on - TIE;
+        let lo = px.l_ref - px.theta_off + TIE;
+        let (l, u) = (px.l, px.u);
+        if l < hi && l > lo && u < hi && u > lo {
+            return None;
+        }
+        if new_irr.is_some() {
+            return Some(f64::NEG_INFINITY);
+        }
+        // Constant input: `L` relaxes monotonically towards `u`, which lies beyond a level;
+        // the crossing time follows from the exponential (IEBCS, §2.4). Rounding only makes
+        // the pixel visited a step early or late; its event times come from `segment`.
+        let level = if u >= hi { hi } else { lo };
+        let wake = px.t - (-(level - l) / (u - l)).ln_1p() / omega;
+        if wake.is_nan() {
+            Some(f64::NEG_INFINITY)
+        } else {
+            // +∞: the input sits on the level and is only reached asymptotically.
+            (wake < f64::INFINITY).then_some(wake)
+        }
+    }
+
+    /// Advance the pixel from `px.t` to `tb`, its input constant or, with `new_irr`, ramping
+    /// linearly in log to the new sample; emit the events of the stretch.
+    #[inline]
+    fn segment(&mut self, px: &mut Pixel, local: u32, tb: f64, new_irr: Option<f32>) {
+        let r = self.response;
+        let ta = px.t;
+        let tb = tb.max(ta);
         let irr_b = new_irr.unwrap_or(px.irr);
         let ub = if irr_b != px.irr { r.log(irr_b) } else { px.u };
         let curve = if r.low_pass() {
@@ -133,18 +171,16 @@ impl StepContext<'_> {
             Curve::direct(ta, tb, px.u, ub)
         };
         let lb = curve.value(curve.tb);
-        let (theta_on, theta_off) = (px.theta_on, px.theta_off);
 
         // Fast path: not blind, `L` inside both levels at the end and, if it may have an
         // extremum (which lies on the input line), the input inside them too.
-        let hi = px.l_ref + theta_on - TIE;
-        let lo = px.l_ref - theta_off + TIE;
+        let hi = px.l_ref + px.theta_on - TIE;
+        let lo = px.l_ref - px.theta_off + TIE;
         let inside = |v: f64| v < hi && v > lo;
         let quiet = !px.blind() && inside(lb) && (inside(px.u) && inside(ub) || !curve.may_turn());
         if !quiet {
-            let split = curve.extremum();
             let start = (curve.ta, curve.start_value());
-            match split {
+            match curve.extremum() {
                 Some(s) => {
                     let turn = (s, curve.value(s));
                     self.crossings(px, local, &curve, start, turn);
@@ -157,16 +193,6 @@ impl StepContext<'_> {
         px.u = ub;
         px.irr = irr_b;
         px.t = tb;
-
-        if px.blind() {
-            return true;
-        }
-        if !r.low_pass() || r.omega(irr_b as f64) <= 0.0 {
-            return false;
-        }
-        let hi = px.l_ref + theta_on - TIE;
-        let lo = px.l_ref - theta_off + TIE;
-        !(lb < hi && lb > lo && ub < hi && ub > lo)
     }
 
     /// Process the level crossings of `L` on the monotone piece from `(p0, L(p0))` to

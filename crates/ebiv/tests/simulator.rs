@@ -1,0 +1,150 @@
+//! The simulator end to end: particles, light, sensor and readout together obey the physics
+//! they model (sensor-model.md), deterministically.
+
+use ebiv::sim::flow::{Flow, FlowSpec};
+use ebiv::sim::particles::SeedingParams;
+use ebiv::sim::scene::{IlluminationParams, Wall};
+use ebiv::sim::sensor::SensorParams;
+use ebiv::sim::simulation::{SimOutput, Simulation};
+use ebiv::Geometry;
+
+fn uniform(u: f64, v: f64) -> Box<dyn Flow> {
+    let spec: FlowSpec =
+        toml::from_str(&format!("type = \"uniform\"\nu = {u}\nv = {v}\n")).unwrap();
+    spec.build().unwrap()
+}
+
+fn simulation(
+    flow: Box<dyn Flow>,
+    sensor: SensorParams,
+    density: f64,
+    duration_us: i64,
+) -> Simulation {
+    Simulation {
+        geometry: Geometry::new(128, 64),
+        flow,
+        seeding: SeedingParams {
+            density,
+            diameter_sigma: 0.0,
+            brightness_sigma: 0.0,
+            sheet_thickness: 1e6, // every particle in focus
+            ..SeedingParams::default()
+        },
+        illumination: IlluminationParams::default(),
+        sensor,
+        start_us: 0,
+        duration_us,
+        step_px: 0.05,
+        max_step_us: 20.0,
+        seed: 5,
+    }
+}
+
+fn run(sim: &Simulation, tracks: Option<f64>) -> SimOutput {
+    sim.run(tracks, &|_| {}).unwrap()
+}
+
+#[test]
+fn on_events_lead_and_off_events_trail_a_moving_particle() {
+    // sensor-model.md §8: at speed, ON events fire ahead of the particle centre, OFF behind.
+    let sim = simulation(uniform(5.0, 0.0), SensorParams::ideal(), 0.0004, 10_000);
+    let out = run(&sim, Some(10.0));
+    assert!(out.events.len() > 200, "{} events", out.events.len());
+    let (mut on, mut off) = (Vec::new(), Vec::new());
+    for e in out.events.iter() {
+        // The track point of the nearest particle at (about) the event time.
+        let near = out
+            .tracks
+            .iter()
+            .filter(|p| (p.t_us - e.t as f64).abs() <= 5.0)
+            .min_by(|a, b| {
+                let da = (a.x - e.x as f64).powi(2) + (a.y - e.y as f64).powi(2);
+                let db = (b.x - e.x as f64).powi(2) + (b.y - e.y as f64).powi(2);
+                da.total_cmp(&db)
+            });
+        let Some(p) = near else { continue };
+        let dx = e.x as f64 - (p.x + 5.0 * (e.t as f64 - p.t_us) * 1e-3);
+        if dx.abs() > 4.0 || (e.y as f64 - p.y).abs() > 4.0 {
+            continue;
+        }
+        if e.p == 1 {
+            on.push(dx)
+        } else {
+            off.push(dx)
+        }
+    }
+    let mean = |v: &[f64]| v.iter().sum::<f64>() / v.len() as f64;
+    assert!(
+        on.len() > 50 && off.len() > 50,
+        "{} ON, {} OFF matched",
+        on.len(),
+        off.len()
+    );
+    assert!(mean(&on) > 0.3, "ON events lead: mean dx {}", mean(&on));
+    assert!(
+        mean(&off) < -0.3,
+        "OFF events trail: mean dx {}",
+        mean(&off)
+    );
+}
+
+#[test]
+fn passing_particles_give_balanced_on_and_off_events() {
+    // Every pixel a particle crosses returns to the background: as many thresholds down as up.
+    let sim = simulation(uniform(3.0, 1.0), SensorParams::ideal(), 0.003, 20_000);
+    let out = run(&sim, None);
+    let on = out.events.count_on() as f64;
+    let off = out.events.len() as f64 - on;
+    assert!(on > 1000.0);
+    assert!((on - off).abs() / on < 0.1, "ON {on} OFF {off}");
+}
+
+#[test]
+fn a_static_scene_and_a_bright_wall_give_no_events_with_an_ideal_sensor() {
+    let mut sim = simulation(uniform(0.0, 0.0), SensorParams::ideal(), 0.005, 5_000);
+    sim.illumination.walls.push(Wall {
+        x: 0.0,
+        y: 40.0,
+        width: 128.0,
+        height: 24.0,
+        brightness: 40.0,
+    });
+    assert_eq!(run(&sim, None).events.len(), 0);
+    // The wall stays silent while particles stream past above it.
+    sim.flow = uniform(4.0, 0.0);
+    let out = run(&sim, None);
+    assert!(out.events.len() > 100);
+    assert!(out.events.y.iter().all(|&y| y < 40), "no event on the wall");
+}
+
+#[test]
+fn a_static_scene_gives_only_noise_at_the_configured_rate() {
+    let sensor = SensorParams {
+        shot_noise_rate_hz: 20.0,
+        ..SensorParams::ideal()
+    };
+    let sim = simulation(uniform(0.0, 0.0), sensor, 0.0, 200_000);
+    let n = run(&sim, None).events.len() as f64;
+    // Shot noise falls with irradiance (v2e): at the background it is between 25 % and 100 %
+    // of the dark rate; Poisson counts over 8192 pixels for 0.2 s.
+    let dark: f64 = 20.0 * 128.0 * 64.0 * 0.2;
+    assert!(
+        n > 0.25 * dark - 5.0 * dark.sqrt() && n < dark + 5.0 * dark.sqrt(),
+        "{n} noise events, dark rate gives {dark}"
+    );
+}
+
+#[test]
+fn same_seed_same_events_on_any_number_of_threads() {
+    let sim = simulation(uniform(2.0, -1.0), SensorParams::gen4(), 0.004, 5_000);
+    let run_with = |threads| {
+        rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build()
+            .unwrap()
+            .install(|| run(&sim, None).events)
+    };
+    let one = run_with(1);
+    assert!(one.len() > 100);
+    assert_eq!(one, run_with(3));
+}
