@@ -18,6 +18,22 @@ pub enum BenchWhat {
     /// Single-thread decode throughput of FILE (read into memory first, so the disk is not
     /// measured): events per second and bytes per second.
     Decode(DecodeBenchArgs),
+    /// Event generation rate of the simulator on a scenario (default: the `paper-rate`
+    /// example, 1280x720 at about 20 M events/s) with the full `gen4` sensor model.
+    Simulate(SimulateBenchArgs),
+}
+
+#[derive(Debug, Args)]
+pub struct SimulateBenchArgs {
+    /// Ready scenario to run (see `ebiv simulate --list-examples`).
+    #[arg(long, default_value = "paper-rate")]
+    pub example: String,
+    /// Simulated time per run.
+    #[arg(long, default_value = "100ms", value_parser = ebiv::units::parse_us)]
+    pub duration: i64,
+    /// How many runs; the best is reported.
+    #[arg(long, default_value_t = 3)]
+    pub repeat: u32,
 }
 
 #[derive(Debug, Args)]
@@ -34,7 +50,41 @@ pub struct DecodeBenchArgs {
 pub fn run(args: &BenchArgs) -> Result<(), ebiv::Error> {
     match &args.what {
         BenchWhat::Decode(a) => decode(a),
+        BenchWhat::Simulate(a) => simulate(a),
     }
+}
+
+fn simulate(args: &SimulateBenchArgs) -> Result<(), ebiv::Error> {
+    let text = ebiv::sim::scenario::Scenario::example(&args.example).ok_or_else(|| {
+        ebiv::Error::parameter(
+            "example",
+            format!("`{}` is not a ready scenario", args.example),
+        )
+    })?;
+    let mut scenario = super::simulate::parse_scenario(text, &args.example)?;
+    scenario.duration = args.duration;
+    let sim = scenario.simulation()?;
+    let mut best = f64::INFINITY;
+    let mut events = 0;
+    for _ in 0..args.repeat.max(1) {
+        let start = Instant::now();
+        let out = sim.run(None, &|_| {})?;
+        best = best.min(start.elapsed().as_secs_f64());
+        events = out.events.len();
+    }
+    let simulated_s = args.duration as f64 * 1e-6;
+    println!(
+        "simulate {}: {} for {}, {events} events ({:.1} M events/s of recording); best of {}: {:.3} s = {:.2} M events/s generated on {} threads",
+        args.example,
+        sim.geometry,
+        ebiv::units::format_us(args.duration),
+        events as f64 / simulated_s * 1e-6,
+        args.repeat.max(1),
+        best,
+        events as f64 / best * 1e-6,
+        rayon::current_num_threads()
+    );
+    Ok(())
 }
 
 fn decode(args: &DecodeBenchArgs) -> Result<(), ebiv::Error> {

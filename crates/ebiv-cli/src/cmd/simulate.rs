@@ -102,12 +102,15 @@ pub fn run(args: &SimulateArgs) -> Result<(), ebiv::Error> {
     );
     println!("wrote {}", args.output.display());
     let r = &output.readout;
-    if r.dropped_bandwidth > 0 {
-        println!(
-            "readout dropped {} events above the bandwidth limit",
-            r.dropped_bandwidth
-        );
-    }
+    println!(
+        "sensor: {} crossings hidden by the refractory period, {} noise events (leak {}, shot {}, hot pixels {}), {} dropped by the readout bandwidth limit",
+        r.dropped_refractory,
+        r.pixels.leak + r.pixels.shot + r.pixels.hot,
+        r.pixels.leak,
+        r.pixels.shot,
+        r.pixels.hot,
+        r.dropped_bandwidth
+    );
     if let Some(path) = &args.truth {
         let end = scenario.start + scenario.duration;
         let field = ebiv::sim::truth::velocity_field(

@@ -78,7 +78,9 @@ fn default_preset() -> String {
 #[derive(Debug, Clone, serde::Deserialize)]
 #[serde(deny_unknown_fields, default)]
 pub struct Sampling {
-    /// Largest particle displacement between samples, px.
+    /// Largest particle displacement between samples, px. Crossing times are exact within a
+    /// step (log intensity is interpolated linearly), so 0.25 px changes event counts by less
+    /// than 0.2 % against 0.05 px.
     pub step_px: f64,
     /// Longest interval between samples, µs.
     pub max_step_us: f64,
@@ -87,8 +89,8 @@ pub struct Sampling {
 impl Default for Sampling {
     fn default() -> Self {
         Sampling {
-            step_px: 0.1,
-            max_step_us: 50.0,
+            step_px: 0.25,
+            max_step_us: 200.0,
         }
     }
 }
@@ -118,7 +120,7 @@ impl Default for TruthSpec {
 }
 
 /// The ready scenarios: name, one-line description, TOML.
-pub const EXAMPLES: [(&str, &str, &str); 4] = [
+pub const EXAMPLES: [(&str, &str, &str); 5] = [
     (
         "uniform",
         "uniform flow at 2 px/ms, 640x480, gen4 sensor",
@@ -138,6 +140,11 @@ pub const EXAMPLES: [(&str, &str, &str); 4] = [
         "shear-layer",
         "Couette shear with a bright wall at the bottom, 640x480",
         include_str!("examples/shear_layer.toml"),
+    ),
+    (
+        "paper-rate",
+        "1280x720 at about 20 M events/s, the EBIV paper's data rate (benchmark scene)",
+        include_str!("examples/paper_rate.toml"),
     ),
 ];
 

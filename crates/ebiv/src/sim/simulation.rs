@@ -229,7 +229,10 @@ impl Simulation {
             band.sensor.noise(t0, t_end, &mut band.events);
             all.append(&mut band.events);
         }
-        let (events, readout) = read_out(all, &self.sensor);
+        let (events, mut readout) = read_out(all, &self.sensor);
+        for band in &bands {
+            readout.absorb(&band.sensor.counters());
+        }
         Ok(SimOutput {
             events,
             readout,

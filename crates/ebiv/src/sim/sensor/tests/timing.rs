@@ -51,6 +51,42 @@ fn step_response_is_delayed_as_the_first_order_low_pass_predicts() {
     assert!(first[1] - 100.0 > 3.0 * (first[0] - 100.0), "{first:?}");
 }
 
+#[test]
+fn a_new_sample_while_the_pixel_waits_for_its_next_crossing_is_exact() {
+    // Bright pixel (constant bandwidth): input steps ln 10 → ln 30 at 100 µs, then to ln 300
+    // at 140 µs, while the low-pass is between crossings and the pixel asleep.
+    let p = quiet(SensorParams::gen4());
+    let theta = p.threshold_on;
+    let w = omega(p.cutoff_hz);
+    let (u0, u1, u2) = (log_of(&p, 10.0), log_of(&p, 30.0), log_of(&p, 300.0));
+    let l_at = |t: f64| {
+        if t <= 140.0 {
+            u1 + (u0 - u1) * (-w * (t - 100.0)).exp()
+        } else {
+            let l140 = u1 + (u0 - u1) * (-w * 40.0).exp();
+            u2 + (l140 - u2) * (-w * (t - 140.0)).exp()
+        }
+    };
+    let expected: Vec<f64> = (1..)
+        .map(|k| u0 + k as f64 * theta)
+        .take_while(|&level| level < u2)
+        .map(|level| bisect(|t| l_at(t) - level, 100.0, 5000.0))
+        .collect();
+    let mut band = one_pixel(&p, 10.0);
+    let mut ev = drive(&mut band, &[(100.0, 10.0), (100.0, 30.0)]);
+    for t in [101.0, 102.5, 120.0, 139.0, 140.0] {
+        band.advance(t, &[], &mut ev);
+    }
+    assert!(ev.len() >= 2, "crossings before the second step: {ev:?}");
+    band.advance(140.0, &[(0, 300.0)], &mut ev);
+    hold(&mut band, 5000.0, 3.7, &mut ev);
+    assert_eq!(ev.len(), expected.len());
+    for (e, t) in ev.iter().zip(&expected) {
+        assert!((e.t_us - t).abs() < 1e-6, "{} vs {t}", e.t_us);
+    }
+    assert_eq!(band.active_pixels(), 0);
+}
+
 /// Bisection of `f` on `[a, b]` (f(a) < 0 < f(b)).
 fn bisect(f: impl Fn(f64) -> f64, mut a: f64, mut b: f64) -> f64 {
     for _ in 0..200 {
