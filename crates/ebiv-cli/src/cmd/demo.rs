@@ -3,11 +3,32 @@
 use clap::Args;
 use ebiv::io::{write, Format, ReadOptions};
 use ebiv::render::{save_png, time_coded_image, upscale, EventRateMap};
-use ebiv::sim::{turntable, TurntableSpec};
+
 use ebiv::stats::RecordingStats;
 use ebiv::PolaritySelection;
 use std::path::PathBuf;
 use std::time::Instant;
+
+/// The demo scene: particles on a turntable seen by the `gen4` sensor model.
+const DEMO_SCENARIO: &str = r#"
+seed = 1
+duration = "50ms"
+
+[sensor]
+width = 320
+height = 240
+preset = "gen4"
+
+[flow]
+type = "solid_body"
+centre = [159.5, 119.5]
+omega = 0.01
+
+[particles]
+density = 0.006
+diameter = 2.5
+brightness = 10.0
+"#;
 
 /// Simulate seeded particles on a turntable, write the recording as a Prophesee EVT 3.0 RAW
 /// file, read it back, check that nothing changed, and draw the event images.
@@ -23,20 +44,17 @@ pub struct DemoArgs {
 
 pub fn run(args: &DemoArgs) -> Result<(), ebiv::Error> {
     std::fs::create_dir_all(&args.output).map_err(|e| ebiv::Error::io(&args.output, e))?;
-    let spec = TurntableSpec {
-        seed: args.seed,
-        ..TurntableSpec::default()
-    };
-    let g = spec.geometry;
+    let mut scenario = super::simulate::parse_scenario(DEMO_SCENARIO, "demo")?;
+    scenario.seed = args.seed;
+    let sim = scenario.simulation()?;
+    let g = sim.geometry;
     let started = Instant::now();
-    let events = turntable(&spec);
-    let (cx, cy) = spec.centre();
-    let (u_corner, v_corner) = spec.velocity(0.0, 0.0);
+    let events = sim.run(None, &|_| {})?.events;
+    let (u_corner, v_corner) = sim.flow.velocity(0.0, 0.0, 0.0);
     println!(
-        "simulated {} events: particles on a turntable, {g} sensor, {} ms, {:.3} rad/ms about ({cx}, {cy}) (corner speed {:.2} px/ms) in {:.2} s",
+        "simulated {} events: particles on a turntable, {g} sensor (gen4 model), {} ms, corner speed {:.2} px/ms, in {:.2} s",
         events.len(),
-        spec.duration_us / 1000,
-        spec.omega_rad_per_ms,
+        scenario.duration / 1000,
         u_corner.hypot(v_corner),
         started.elapsed().as_secs_f64()
     );
@@ -78,7 +96,7 @@ pub fn run(args: &DemoArgs) -> Result<(), ebiv::Error> {
     let image = time_coded_image(
         &events,
         g,
-        spec.duration_us / 2,
+        scenario.duration / 2,
         2_500,
         PolaritySelection::Positive,
     );
@@ -91,7 +109,7 @@ pub fn run(args: &DemoArgs) -> Result<(), ebiv::Error> {
     );
     let mut map = EventRateMap::new(g);
     map.add(&events, i64::MIN, i64::MAX, PolaritySelection::Both);
-    let rate = map.render(Some(spec.duration_us));
+    let rate = map.render(Some(scenario.duration));
     let rate_png = args.output.join("rate.png");
     save_png(&upscale(&rate.image, 2), &rate_png)?;
     println!(

@@ -2,7 +2,7 @@
 //! event-camera pixel model, with the ground truth (velocity field and particle paths).
 //!
 //! Facts, formulas and the defaults of established simulators are in the project's
-//! `docs/sensor-model.md`. `turntable` is the small ideal-sensor generator of the first demo.
+//! `docs/sensor-model.md`.
 
 pub mod flow;
 pub mod ode;
@@ -13,7 +13,5 @@ pub mod scene;
 pub mod sensor;
 pub mod simulation;
 pub mod truth;
-mod turntable;
 
 pub use flow::{Flow, FlowSpec};
-pub use turntable::{turntable, TurntableSpec};
