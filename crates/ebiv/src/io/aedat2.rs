@@ -14,6 +14,7 @@
 //! Rows are flipped to image coordinates (`y = height − 1 − y_raw`); x is kept as stored.
 
 use super::bytestream::{WordDecoder, WordStreamReader};
+use super::time32::Unwrap32;
 use super::{DecodeReport, Format, FormatReader, Metadata, ReadOptions, ReadSeek};
 use crate::error::{Error, Result};
 use crate::event::{EventBuffer, Geometry};
@@ -107,8 +108,7 @@ pub(crate) fn open(
         layout,
         width: geometry.width,
         height: geometry.height,
-        last_raw: None,
-        wrap_us: 0,
+        clock: Unwrap32::default(),
     };
     Ok(Box::new(WordStreamReader::new(
         source,
@@ -189,9 +189,8 @@ struct Aedat2Decoder {
     layout: Layout,
     width: u32,
     height: u32,
-    last_raw: Option<u32>,
-    /// Added when the 32-bit time drops by more than 2^31 µs (a wrap after 71.6 min).
-    wrap_us: i64,
+    /// The 32-bit clock, unwrapped.
+    clock: Unwrap32,
 }
 
 impl WordDecoder for Aedat2Decoder {
@@ -208,13 +207,7 @@ impl WordDecoder for Aedat2Decoder {
         for rec in bytes.chunks_exact(8) {
             let addr = u32::from_be_bytes([rec[0], rec[1], rec[2], rec[3]]);
             let raw_t = u32::from_be_bytes([rec[4], rec[5], rec[6], rec[7]]);
-            if let Some(last) = self.last_raw {
-                if last > raw_t && last - raw_t > 1 << 31 {
-                    self.wrap_us += 1 << 32;
-                }
-            }
-            self.last_raw = Some(raw_t);
-            let t = raw_t as i64 + self.wrap_us;
+            let t = self.clock.unwrap(raw_t);
             let (x, y_raw, p) = match self.layout {
                 Layout::Dvs128 => {
                     if addr & 0xFFFF_8000 != 0 {

@@ -9,6 +9,7 @@
 //! (type 1) become events, external-input special events (type 0) become triggers, every other
 //! packet type is skipped and counted.
 
+use super::prophesee_header::read_up_to;
 use super::{DecodeReport, Format, FormatReader, Metadata, ReadOptions, ReadSeek};
 use crate::error::{Error, Result};
 use crate::event::{EventBuffer, Geometry, Trigger};
@@ -440,10 +441,6 @@ impl Layout {
             self.overflow | (word(self.ts_offset) & 0x7FFF_FFFF) as i64,
         )
     }
-}
-
-fn read_up_to(source: &mut dyn Read, buf: &mut [u8]) -> Result<usize> {
-    super::prophesee_header::read_up_to(source, buf)
 }
 
 impl FormatReader for Aedat31Reader {

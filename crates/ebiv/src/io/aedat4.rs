@@ -20,6 +20,7 @@ mod test_writer;
 #[cfg(test)]
 mod tests;
 
+use super::prophesee_header::read_up_to;
 use super::{DecodeReport, Format, FormatReader, Metadata, ReadOptions, ReadSeek};
 use crate::error::{Error, Result};
 use crate::event::{EventBuffer, Geometry};
@@ -495,11 +496,6 @@ impl Aedat4Reader {
             }
         }
     }
-}
-
-/// Read until `buf` is full or the source ends; returns how many bytes were read.
-fn read_up_to(source: &mut dyn Read, buf: &mut [u8]) -> Result<usize> {
-    super::prophesee_header::read_up_to(source, buf)
 }
 
 impl FormatReader for Aedat4Reader {

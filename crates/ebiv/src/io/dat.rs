@@ -3,6 +3,7 @@
 
 use super::bytestream::{WordDecoder, WordStreamReader};
 use super::prophesee_header::{read_up_to, PropheseeHeader};
+use super::time32::Unwrap32;
 use super::{DecodeReport, Format, FormatReader, ReadOptions, ReadSeek};
 use crate::error::{Error, Result};
 use crate::event::{EventBuffer, Geometry, Trigger};
@@ -71,8 +72,7 @@ pub(crate) fn open(
     let decoder = DatDecoder {
         layout,
         geometry: metadata.geometry,
-        last_raw: None,
-        wrap_us: 0,
+        clock: Unwrap32::default(),
     };
     Ok(Box::new(WordStreamReader::new(
         source,
@@ -87,9 +87,8 @@ pub(crate) fn open(
 struct DatDecoder {
     layout: Layout,
     geometry: Option<Geometry>,
-    last_raw: Option<u32>,
-    /// Added when the 32-bit time drops by more than 2^31 µs (a wrap after 71.6 min).
-    wrap_us: i64,
+    /// The 32-bit clock, unwrapped.
+    clock: Unwrap32,
 }
 
 impl WordDecoder for DatDecoder {
@@ -109,13 +108,7 @@ impl WordDecoder for DatDecoder {
         for rec in bytes.chunks_exact(8) {
             let raw_t = u32::from_le_bytes([rec[0], rec[1], rec[2], rec[3]]);
             let data = u32::from_le_bytes([rec[4], rec[5], rec[6], rec[7]]);
-            if let Some(last) = self.last_raw {
-                if last > raw_t && last - raw_t > 1 << 31 {
-                    self.wrap_us += 1 << 32;
-                }
-            }
-            self.last_raw = Some(raw_t);
-            let t = raw_t as i64 + self.wrap_us;
+            let t = self.clock.unwrap(raw_t);
             let (x, y, p) = match self.layout {
                 Layout::V2 => (data & 0x3FFF, (data >> 14) & 0x3FFF, (data >> 28) & 0xF),
                 Layout::V1 => (data & 0x1FF, (data >> 9) & 0xFF, (data >> 17) & 1),

@@ -22,6 +22,7 @@ mod raw;
 mod reader;
 mod report;
 mod text;
+mod time32;
 pub mod write;
 
 pub use detect::{detect_format, Format};
