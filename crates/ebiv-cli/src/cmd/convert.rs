@@ -7,13 +7,14 @@ use ebiv::io::{write, Format, RawEncoding};
 use ebiv::PolaritySelection;
 use std::path::PathBuf;
 
-/// Convert IN to OUT; the output format follows OUT's extension: .raw (EVT 3.0), .csv
-/// (header `t,x,y,p`, t in µs, p 0/1), .npy (structured array) or .npz (column arrays).
+/// Convert IN to OUT; the output format follows OUT's extension: .raw (EVT 3.0, or
+/// --output-encoding), .aedat4 (LZ4), .csv (header `t,x,y,p`, t in µs, p 0/1), .npy
+/// (structured array) or .npz (column arrays).
 #[derive(Debug, Args)]
 pub struct ConvertArgs {
     /// The recording to read.
     pub input: PathBuf,
-    /// The file to write (.raw, .csv, .npy, .npz).
+    /// The file to write (.raw, .aedat4, .csv, .npy, .npz).
     pub output: PathBuf,
     /// Keep only START:END (e.g. `10ms:20ms`, either side may be empty), measured from the
     /// first event of the recording (or in camera time with --absolute-time).
