@@ -219,6 +219,17 @@ impl<'a> ParticleRenderer<'a> {
         p.diameter * (k.max(1.0).ln() / 8.0).sqrt() + 0.5
     }
 
+    /// The rows `(first, last)` the image of `p` at light factor `light` may reach (not
+    /// clipped to the sensor), or `None` when [`ParticleRenderer::add`] would draw nothing.
+    pub fn rows_reached(&self, p: &Particle, light: f64) -> Option<(i64, i64)> {
+        let peak = p.brightness * self.seeding.sheet_profile(p.z) * light;
+        if peak < 1e-4 {
+            return None;
+        }
+        let r = self.reach(p);
+        Some(((p.y - r).floor() as i64, (p.y + r).ceil() as i64))
+    }
+
     /// Add the image of `p` at light factor `light` to the band holding rows `rows` (stored
     /// row-major in `acc`, one entry per pixel of the band); every pixel first written is
     /// appended to `touched` (its index within the band) and marked in `mark`.
@@ -249,11 +260,12 @@ impl<'a> ParticleRenderer<'a> {
         let scale = peak / (norm * norm);
         integrate_axis(&mut self.ex, x0, x1, p.x, s);
         integrate_axis(&mut self.ey, y0, y1, p.y, s);
+        let walls = !self.illumination.walls.is_empty();
         for (j, yy) in (y0..=y1).enumerate() {
             let wy = self.ey[j] * scale;
             let row = (yy - rows.start as i64) as usize * w as usize;
             for (i, xx) in (x0..=x1).enumerate() {
-                if self.illumination.occluded(xx as u32, yy as u32) {
+                if walls && self.illumination.occluded(xx as u32, yy as u32) {
                     continue;
                 }
                 let k = row + xx as usize;

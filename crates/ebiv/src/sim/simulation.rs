@@ -75,6 +75,9 @@ pub struct SimOutput {
 /// Rows per band: small enough for both cores to stay busy, large enough to amortise.
 const BAND_ROWS: u32 = 32;
 
+/// Samples each band processes per parallel task.
+const SAMPLES_PER_BATCH: usize = 64;
+
 /// One band of rows with its sensor pixels and the irradiance of its last sample.
 struct Band {
     rows: std::ops::Range<u32>,
@@ -141,6 +144,7 @@ impl Simulation {
         let margin = (3.0 * self.seeding.diameter + 2.0 + speed * self.max_step_us * 1e-3).ceil();
         let mut cloud = ParticleCloud::seed(&self.seeding, w, h, margin, self.seed);
         let mut bands: Vec<Band> = (0..g.height.div_ceil(BAND_ROWS))
+            .into_par_iter()
             .map(|b| {
                 let rows = b * BAND_ROWS..((b + 1) * BAND_ROWS).min(g.height);
                 let n = (rows.end - rows.start) as usize * g.width as usize;
@@ -159,18 +163,19 @@ impl Simulation {
             .collect();
 
         // The sensor starts adapted to the scene at t0.
-        let buckets = bucket_by_band(&cloud.particles, &bands, margin);
+        let sorter = ParticleRenderer::new(&self.seeding, &self.illumination, g);
+        let mut buckets = Vec::new();
+        bucket_by_band(
+            &cloud.particles,
+            &sorter,
+            self.illumination.sheet(t0),
+            bands.len(),
+            &mut buckets,
+        );
         bands.par_iter_mut().zip(buckets.par_iter()).for_each_init(
             || ParticleRenderer::new(&self.seeding, &self.illumination, g),
             |renderer, (band, bucket)| {
-                band.render(
-                    renderer,
-                    bucket,
-                    &cloud.particles,
-                    &self.illumination,
-                    t0,
-                    g,
-                );
+                band.render(renderer, bucket, &self.illumination, t0, g);
                 band.commit_lit(&self.illumination, t0, g);
                 let value = &band.value;
                 let rows = band.rows.clone();
@@ -186,47 +191,89 @@ impl Simulation {
         let mut t = t0;
         let mut samples = 0u64;
         let flicker = self.illumination.flicker_hz > 0.0;
-        while t < t_end {
-            if let Some(interval) = track_interval_us.filter(|&i| i > 0.0) {
-                while next_track <= t {
-                    self.record_tracks(&cloud.particles, t, &mut tracks);
-                    next_track += interval;
+        // Samples are taken in batches: the particle motion of a batch is computed first, then
+        // every band runs through all the samples of the batch in one task, so that its pixels
+        // stay in cache and the scheduling cost is paid once per batch. Each band sees exactly
+        // the same sequence of samples as one step at a time would give it. The next batch's
+        // particle motion is computed while the bands process the current one.
+        let n_bands = bands.len();
+        let mut fill = |batch: &mut Vec<Sample>| -> usize {
+            let mut used = 0;
+            while used < SAMPLES_PER_BATCH && t < t_end {
+                if let Some(interval) = track_interval_us.filter(|&i| i > 0.0) {
+                    while next_track <= t {
+                        self.record_tracks(&cloud.particles, t, &mut tracks);
+                        next_track += interval;
+                    }
                 }
+                let speed = self.flow.max_speed(w, h, t).max(1e-6);
+                let mut dt = (self.step_px / speed * 1e3).min(self.max_step_us);
+                if let Some(&c) = self.illumination.corners(t, t + dt).first() {
+                    dt = c - t;
+                }
+                let t_next = (t + dt).min(t_end);
+                cloud.advance(self.flow.as_ref(), t, t_next);
+                t = t_next;
+                samples += 1;
+                if batch.len() <= used {
+                    batch.push(Sample {
+                        t: 0.0,
+                        light: 0.0,
+                        buckets: Vec::new(),
+                    });
+                }
+                let sample = &mut batch[used];
+                sample.t = t;
+                sample.light = self.illumination.sheet(t);
+                bucket_by_band(
+                    &cloud.particles,
+                    &sorter,
+                    sample.light,
+                    n_bands,
+                    &mut sample.buckets,
+                );
+                used += 1;
             }
-            let speed = self.flow.max_speed(w, h, t).max(1e-6);
-            let mut dt = (self.step_px / speed * 1e3).min(self.max_step_us);
-            if let Some(&c) = self.illumination.corners(t, t + dt).first() {
-                dt = c - t;
-            }
-            let t_next = (t + dt).min(t_end);
-            cloud.advance(self.flow.as_ref(), t, t_next);
-            t = t_next;
-            samples += 1;
-            let light = self.illumination.sheet(t);
-            let buckets = bucket_by_band(&cloud.particles, &bands, margin);
-            bands.par_iter_mut().zip(buckets.par_iter()).for_each_init(
-                || ParticleRenderer::new(&self.seeding, &self.illumination, g),
-                |renderer, (band, bucket)| {
-                    band.render_scaled(
-                        renderer,
-                        bucket,
-                        &cloud.particles,
-                        light,
-                        t,
-                        g,
-                        &self.illumination,
-                        flicker,
-                    );
-                    let changed = std::mem::take(&mut band.changed);
-                    band.sensor.advance(t, &changed, &mut band.events);
-                    band.changed = changed;
+            used
+        };
+        let mut current: Vec<Sample> = Vec::new();
+        let mut next: Vec<Sample> = Vec::new();
+        let mut used = fill(&mut current);
+        while used > 0 {
+            let batch = &current[..used];
+            let ((), next_used) = rayon::join(
+                || {
+                    bands.par_iter_mut().enumerate().for_each_init(
+                        || ParticleRenderer::new(&self.seeding, &self.illumination, g),
+                        |renderer, (b, band)| {
+                            for sample in batch {
+                                band.render_scaled(
+                                    renderer,
+                                    &sample.buckets[b],
+                                    sample.light,
+                                    sample.t,
+                                    g,
+                                    &self.illumination,
+                                    flicker,
+                                );
+                                let changed = std::mem::take(&mut band.changed);
+                                band.sensor.advance(sample.t, &changed, &mut band.events);
+                                band.changed = changed;
+                            }
+                        },
+                    )
                 },
+                || fill(&mut next),
             );
-            progress((t - t0) / (t_end - t0));
+            progress((batch[used - 1].t - t0) / (t_end - t0));
+            std::mem::swap(&mut current, &mut next);
+            used = next_used;
         }
+        bands
+            .par_iter_mut()
+            .for_each(|band| band.sensor.noise(t0, t_end, &mut band.events));
         let mut all: Vec<SimEvent> = Vec::with_capacity(bands.iter().map(|b| b.events.len()).sum());
         for band in &mut bands {
-            band.sensor.noise(t0, t_end, &mut band.events);
             all.append(&mut band.events);
         }
         let (events, mut readout) = read_out(all, &self.sensor);
@@ -260,18 +307,36 @@ impl Simulation {
     }
 }
 
-/// Indices of the particles whose image may reach each band.
-fn bucket_by_band(particles: &[Particle], bands: &[Band], margin: f64) -> Vec<Vec<u32>> {
-    let mut buckets = vec![Vec::new(); bands.len()];
-    let reach = margin.max(1.0);
-    for (i, p) in particles.iter().enumerate() {
-        let lo = ((p.y - reach).floor().max(0.0) as u32) / BAND_ROWS;
-        let hi = ((p.y + reach).ceil().max(0.0) as u32) / BAND_ROWS;
-        for b in lo..=hi.min(bands.len() as u32 - 1) {
-            buckets[b as usize].push(i as u32);
+/// The particles whose image may reach each of `bands` bands at light factor `light`, copied
+/// into `buckets` (so that each band reads its particles from contiguous memory). A particle
+/// goes to exactly the bands in which [`ParticleRenderer::add`] draws something.
+fn bucket_by_band(
+    particles: &[Particle],
+    renderer: &ParticleRenderer,
+    light: f64,
+    bands: usize,
+    buckets: &mut Vec<Vec<Particle>>,
+) {
+    buckets.resize_with(bands, Vec::new);
+    buckets.iter_mut().for_each(Vec::clear);
+    let last = bands as i64 - 1;
+    for p in particles {
+        let Some((y0, y1)) = renderer.rows_reached(p, light) else {
+            continue;
+        };
+        let lo = y0.max(0) / BAND_ROWS as i64;
+        let hi = (y1.max(0) / BAND_ROWS as i64).min(last);
+        for b in lo..=hi {
+            buckets[b as usize].push(*p);
         }
     }
-    buckets
+}
+
+/// One time sample of a batch: its time, light factor and the particles of each band.
+struct Sample {
+    t: f64,
+    light: f64,
+    buckets: Vec<Vec<Particle>>,
 }
 
 impl Band {
@@ -279,16 +344,15 @@ impl Band {
     fn render(
         &mut self,
         r: &mut ParticleRenderer,
-        bucket: &[u32],
-        particles: &[Particle],
+        bucket: &[Particle],
         illumination: &IlluminationParams,
         t: f64,
         g: Geometry,
     ) {
         let light = illumination.sheet(t);
-        for &i in bucket {
+        for p in bucket {
             r.add(
-                &particles[i as usize],
+                p,
                 light,
                 self.rows.clone(),
                 &mut self.acc,
@@ -323,17 +387,16 @@ impl Band {
     fn render_scaled(
         &mut self,
         r: &mut ParticleRenderer,
-        bucket: &[u32],
-        particles: &[Particle],
+        bucket: &[Particle],
         light: f64,
         t: f64,
         g: Geometry,
         illumination: &IlluminationParams,
         flicker: bool,
     ) {
-        for &i in bucket {
+        for p in bucket {
             r.add(
-                &particles[i as usize],
+                p,
                 light,
                 self.rows.clone(),
                 &mut self.acc,
@@ -345,9 +408,17 @@ impl Band {
         let row0 = self.rows.start;
         let offset = row0 as usize * w;
         self.changed.clear();
+        // Without walls the ambient level is the same for every pixel.
+        let flat = illumination
+            .walls
+            .is_empty()
+            .then(|| illumination.ambient(0, row0, t));
         let update = |k: usize, value: &mut [f32], acc: &[f32], changed: &mut Vec<(u32, f32)>| {
-            let (x, y) = ((k % w) as u32, row0 + (k / w) as u32);
-            let new = illumination.ambient(x, y, t) + acc[k];
+            let ambient = match flat {
+                Some(a) => a,
+                None => illumination.ambient((k % w) as u32, row0 + (k / w) as u32, t),
+            };
+            let new = ambient + acc[k];
             if new != value[k] {
                 value[k] = new;
                 changed.push(((offset + k) as u32, new));

@@ -7,6 +7,7 @@ use super::params::{SensorParams, TimestampMode};
 use super::response::clean;
 use super::{PixelCounters, SimEvent};
 use crate::event::EventBuffer;
+use rayon::slice::ParallelSliceMut;
 
 /// What the readout did, and (after [`ReadoutReport::absorb`]) what the pixels did.
 #[derive(Debug, Clone, Default, PartialEq, Eq, serde::Serialize)]
@@ -68,7 +69,9 @@ pub fn read_out(mut events: Vec<SimEvent>, params: &SensorParams) -> (EventBuffe
     events.retain(|e| e.t_us.is_finite() && e.p <= 1);
     report.dropped_invalid = (before - events.len()) as u64;
 
-    events.sort_unstable_by_key(|e| (ordered_bits(e.t_us), e.y, e.x, e.p));
+    // The key orders events totally (equal keys are identical events), so the parallel sort
+    // gives the same order on any number of threads.
+    events.par_sort_unstable_by_key(|e| (ordered_bits(e.t_us), e.y, e.x, e.p));
 
     let refractory = clean(params.refractory_us, 0.0, 1e12, 0.0);
     if refractory > 0.0 && !events.is_empty() {
