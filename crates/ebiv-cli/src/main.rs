@@ -31,6 +31,10 @@ enum Command {
     Convert(cmd::convert::ConvertArgs),
     /// Draw a time-coded event image or an event-rate map as PNG.
     Render(cmd::render::RenderArgs),
+    /// Measure velocity fields from a recording: sum of correlation or motion compensation.
+    Process(Box<cmd::process::ProcessArgs>),
+    /// Write a commented configuration file for `ebiv process --config`.
+    Init(cmd::process::InitArgs),
     /// Simulate a recording of a known flow through an event-camera model, with ground truth.
     Simulate(cmd::simulate::SimulateArgs),
     /// Measure throughput on this machine.
@@ -44,6 +48,8 @@ fn main() -> ExitCode {
         Command::Info(a) => cmd::info::run(a),
         Command::Convert(a) => cmd::convert::run(a),
         Command::Render(a) => cmd::render::run(a),
+        Command::Process(a) => cmd::process::run(a),
+        Command::Init(a) => cmd::process::init(a),
         Command::Simulate(a) => cmd::simulate::run(a),
         Command::Bench(a) => cmd::bench::run(a),
     };

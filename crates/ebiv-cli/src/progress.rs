@@ -30,3 +30,14 @@ pub fn fraction_bar(message: &str) -> ProgressBar {
     bar.set_message(message.to_string());
     bar
 }
+
+/// A bar over `total` items of work (fields, runs).
+pub fn count_bar(total: u64, unit: &str) -> ProgressBar {
+    ProgressBar::new(total).with_style(
+        ProgressStyle::with_template(&format!(
+            "{{msg}} [{{bar:40}}] {{pos}}/{{len}} {unit} ({{elapsed}}, {{eta}})"
+        ))
+        .expect("valid template")
+        .progress_chars("=> "),
+    )
+}

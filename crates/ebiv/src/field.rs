@@ -1,7 +1,266 @@
-//! Vector fields on a regular grid, one per time step (`FieldSeries`).
+//! Vector fields on a regular grid: one field ([`VectorField`]) and a time series of them
+//! ([`FieldSeries`]), with per-vector [`Status`] flags and an optional [`Calibration`].
 //!
 //! Image coordinates (x right, y down, pixel centres at integers), velocities in px/ms,
-//! invalid vectors NaN. The layout is (time, y, x), as in every file ebiv writes.
+//! invalid vectors NaN with a status saying why; never a zero vector for missing data.
+//! The layout is (time, y, x), as in every file ebiv writes.
+
+/// Why a vector is not a plain valid measurement: a bit set; `0` means valid.
+///
+/// A vector with any of the `INVALID` bits has NaN velocity; a replaced vector keeps the bit
+/// of the test that rejected it and gains [`Status::REPLACED`], with the interpolated value.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Hash)]
+pub struct Status(pub u8);
+
+impl Status {
+    /// A valid measurement.
+    pub const VALID: Status = Status(0);
+    /// The window held no events (or too few to estimate anything).
+    pub const NO_EVENTS: Status = Status(1);
+    /// Fewer events than the configured minimum.
+    pub const FEW_EVENTS: Status = Status(2);
+    /// Correlation peak ratio (first/second peak) below the configured minimum.
+    pub const LOW_PEAK_RATIO: Status = Status(4);
+    /// Rejected by the normalized median test (Westerweel & Scarano 2005).
+    pub const MEDIAN_TEST: Status = Status(8);
+    /// The objective's peak lies on the edge of the search range (motion compensation) or of
+    /// the correlation plane: the true value is probably outside.
+    pub const OUT_OF_RANGE: Status = Status(16);
+    /// No usable peak (flat objective, failed fit).
+    pub const NO_PEAK: Status = Status(32);
+    /// The vector was replaced by interpolation from its valid neighbours.
+    pub const REPLACED: Status = Status(64);
+    /// The window centre lies in the user's mask.
+    pub const MASKED: Status = Status(128);
+
+    /// Names of the flags, in bit order, as written into file metadata.
+    pub const NAMES: [(&'static str, Status); 8] = [
+        ("no_events", Status::NO_EVENTS),
+        ("few_events", Status::FEW_EVENTS),
+        ("low_peak_ratio", Status::LOW_PEAK_RATIO),
+        ("median_test", Status::MEDIAN_TEST),
+        ("out_of_range", Status::OUT_OF_RANGE),
+        ("no_peak", Status::NO_PEAK),
+        ("replaced", Status::REPLACED),
+        ("masked", Status::MASKED),
+    ];
+
+    /// True if no flag is set.
+    pub fn is_valid(self) -> bool {
+        self.0 == 0
+    }
+
+    /// True if every flag of `other` is set in `self`.
+    pub fn contains(self, other: Status) -> bool {
+        self.0 & other.0 == other.0
+    }
+
+    /// True if the vector carries a value: valid, or replaced.
+    pub fn has_value(self) -> bool {
+        self.0 == 0 || self.contains(Status::REPLACED)
+    }
+
+    /// `self` with the flags of `other` added.
+    pub fn with(self, other: Status) -> Status {
+        Status(self.0 | other.0)
+    }
+
+    /// One line describing the flags, for file metadata: `1 no_events, 2 few_events, …`.
+    pub fn legend() -> String {
+        Status::NAMES
+            .iter()
+            .map(|(name, s)| format!("{} {name}", s.0))
+            .collect::<Vec<_>>()
+            .join(", ")
+    }
+}
+
+impl std::ops::BitOr for Status {
+    type Output = Status;
+    fn bitor(self, rhs: Status) -> Status {
+        self.with(rhs)
+    }
+}
+
+/// Physical scaling of a field: positions in mm and velocities in m/s.
+///
+/// With `mm_per_px` millimetres per pixel, 1 px/ms is `mm_per_px` mm/ms, i.e. `mm_per_px`
+/// m/s. `origin_px` is the image point that becomes (0, 0) mm. With `y_up` the physical y
+/// axis points up: positions and the v component both change sign, never only one of them.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Calibration {
+    /// Millimetres per pixel.
+    pub mm_per_px: f64,
+    /// Image position (x, y) in px of the physical origin.
+    pub origin_px: [f64; 2],
+    /// Physical y axis points up (image y points down).
+    pub y_up: bool,
+}
+
+impl Calibration {
+    /// Check that the scale is finite and positive.
+    pub fn validate(&self) -> crate::Result<()> {
+        if !(self.mm_per_px.is_finite() && self.mm_per_px > 0.0) {
+            return Err(crate::Error::parameter(
+                "mm_per_px",
+                format!("must be a positive number, got {}", self.mm_per_px),
+            ));
+        }
+        if !self.origin_px.iter().all(|c| c.is_finite()) {
+            return Err(crate::Error::parameter("origin", "must be finite"));
+        }
+        Ok(())
+    }
+
+    /// Physical x position (mm) of image column `x` (px).
+    pub fn x_mm(&self, x: f64) -> f64 {
+        (x - self.origin_px[0]) * self.mm_per_px
+    }
+
+    /// Physical y position (mm) of image row `y` (px), flipped when `y_up`.
+    pub fn y_mm(&self, y: f64) -> f64 {
+        let d = (y - self.origin_px[1]) * self.mm_per_px;
+        if self.y_up {
+            -d
+        } else {
+            d
+        }
+    }
+
+    /// Physical velocity (m/s) of an image velocity (px/ms), v flipped when `y_up`.
+    pub fn velocity_m_per_s(&self, u: f32, v: f32) -> (f32, f32) {
+        let s = self.mm_per_px as f32;
+        let v = v * s;
+        (u * s, if self.y_up { -v } else { v })
+    }
+}
+
+/// One vector field on a regular grid, arrays indexed `[row][column]`.
+#[derive(Debug, Clone, PartialEq)]
+pub struct VectorField {
+    /// Grid column positions (window centres), px.
+    pub x: Vec<f64>,
+    /// Grid row positions, px.
+    pub y: Vec<f64>,
+    /// x velocity, px/ms (NaN where invalid).
+    pub u: Vec<f32>,
+    /// y velocity (positive down), px/ms.
+    pub v: Vec<f32>,
+    /// Status flags (bits of [`Status`]).
+    pub status: Vec<Status>,
+    /// Peak value of the correlation plane or objective.
+    pub peak: Vec<f32>,
+    /// Ratio of the highest to the second-highest peak (NaN where not defined).
+    pub peak_ratio: Vec<f32>,
+    /// Events used by the estimator in the window.
+    pub event_count: Vec<u32>,
+}
+
+impl VectorField {
+    /// An all-NaN field flagged [`Status::NO_EVENTS`] on the given grid.
+    pub fn new(x: Vec<f64>, y: Vec<f64>) -> Self {
+        let n = x.len() * y.len();
+        VectorField {
+            x,
+            y,
+            u: vec![f32::NAN; n],
+            v: vec![f32::NAN; n],
+            status: vec![Status::NO_EVENTS; n],
+            peak: vec![f32::NAN; n],
+            peak_ratio: vec![f32::NAN; n],
+            event_count: vec![0; n],
+        }
+    }
+
+    /// Number of columns.
+    pub fn width(&self) -> usize {
+        self.x.len()
+    }
+
+    /// Number of rows.
+    pub fn height(&self) -> usize {
+        self.y.len()
+    }
+
+    /// Flat index of `(row, column)`.
+    #[inline]
+    pub fn index(&self, row: usize, col: usize) -> usize {
+        row * self.x.len() + col
+    }
+
+    /// Number of vectors.
+    pub fn len(&self) -> usize {
+        self.u.len()
+    }
+
+    /// True for a field without vectors.
+    pub fn is_empty(&self) -> bool {
+        self.u.is_empty()
+    }
+
+    /// Mark vector `i` invalid for `reason`: NaN velocity, flag added.
+    pub fn invalidate(&mut self, i: usize, reason: Status) {
+        self.u[i] = f32::NAN;
+        self.v[i] = f32::NAN;
+        self.status[i] = self.status[i].with(reason);
+    }
+
+    /// Share of vectors that are valid measurements (status 0).
+    pub fn valid_share(&self) -> f64 {
+        if self.status.is_empty() {
+            return 0.0;
+        }
+        let valid = self.status.iter().filter(|s| s.is_valid()).count();
+        valid as f64 / self.status.len() as f64
+    }
+
+    /// Velocity at an arbitrary image point (px) by bilinear interpolation between the grid
+    /// nodes that carry a value (valid or replaced), clamped to the grid's extent. Nodes
+    /// without a value are left out and the weights renormalised; `None` if none of the four
+    /// surrounding nodes has a value.
+    pub fn sample(&self, px: f64, py: f64) -> Option<[f64; 2]> {
+        if self.x.is_empty() || self.y.is_empty() {
+            return None;
+        }
+        let (c0, c1, fx) = bracket(&self.x, px);
+        let (r0, r1, fy) = bracket(&self.y, py);
+        let mut sum = [0.0f64; 2];
+        let mut weight = 0.0f64;
+        for (r, wy) in [(r0, 1.0 - fy), (r1, fy)] {
+            for (c, wx) in [(c0, 1.0 - fx), (c1, fx)] {
+                let w = wx * wy;
+                let i = self.index(r, c);
+                if w > 0.0 && self.status[i].has_value() && self.u[i].is_finite() {
+                    sum[0] += w * self.u[i] as f64;
+                    sum[1] += w * self.v[i] as f64;
+                    weight += w;
+                }
+            }
+        }
+        (weight > 1e-12).then(|| [sum[0] / weight, sum[1] / weight])
+    }
+}
+
+/// Indices of the two axis nodes around `p` and the fractional position between them,
+/// clamped at the ends of the (ascending) axis.
+fn bracket(axis: &[f64], p: f64) -> (usize, usize, f64) {
+    let last = axis.len() - 1;
+    if last == 0 || p <= axis[0] {
+        return (0, 0, 0.0);
+    }
+    if p >= axis[last] {
+        return (last, last, 0.0);
+    }
+    let hi = axis.partition_point(|&a| a <= p).min(last);
+    let lo = hi - 1;
+    let span = axis[hi] - axis[lo];
+    let f = if span > 0.0 {
+        (p - axis[lo]) / span
+    } else {
+        0.0
+    };
+    (lo, hi, f)
+}
 
 /// A time series of 2-D vector fields on one regular grid.
 #[derive(Debug, Clone, PartialEq)]
@@ -10,18 +269,28 @@ pub struct FieldSeries {
     pub x: Vec<f64>,
     /// Grid row positions, px.
     pub y: Vec<f64>,
-    /// Time of each field, µs.
+    /// Time of each field (centre of its time slab), µs.
     pub t_us: Vec<i64>,
     /// x velocity, px/ms, indexed `[t][y][x]` (NaN where invalid).
     pub u: Vec<f32>,
     /// y velocity (positive down), px/ms, indexed `[t][y][x]`.
     pub v: Vec<f32>,
+    /// Status flags, indexed `[t][y][x]`.
+    pub status: Vec<Status>,
+    /// Peak value of the correlation plane or objective, indexed `[t][y][x]`.
+    pub peak: Vec<f32>,
+    /// First-to-second peak ratio (NaN where not defined), indexed `[t][y][x]`.
+    pub peak_ratio: Vec<f32>,
+    /// Events used per window, indexed `[t][y][x]`.
+    pub event_count: Vec<u32>,
+    /// Physical scaling applied by the writers, if any.
+    pub calibration: Option<Calibration>,
     /// Descriptive attributes written into every output (source, parameters, software).
     pub attributes: Vec<(String, String)>,
 }
 
 impl FieldSeries {
-    /// An all-NaN series on the given grid and times.
+    /// An all-NaN series (status [`Status::NO_EVENTS`]) on the given grid and times.
     pub fn new(x: Vec<f64>, y: Vec<f64>, t_us: Vec<i64>) -> Self {
         let n = x.len() * y.len() * t_us.len();
         FieldSeries {
@@ -30,8 +299,18 @@ impl FieldSeries {
             t_us,
             u: vec![f32::NAN; n],
             v: vec![f32::NAN; n],
+            status: vec![Status::NO_EVENTS; n],
+            peak: vec![f32::NAN; n],
+            peak_ratio: vec![f32::NAN; n],
+            event_count: vec![0; n],
+            calibration: None,
             attributes: Vec::new(),
         }
+    }
+
+    /// An empty series on a grid, to which fields are appended with [`FieldSeries::push`].
+    pub fn on_grid(x: Vec<f64>, y: Vec<f64>) -> Self {
+        FieldSeries::new(x, y, Vec::new())
     }
 
     /// Flat index of `(t, row, column)`.
@@ -45,6 +324,54 @@ impl FieldSeries {
         self.x.len() * self.y.len()
     }
 
+    /// Append a field at time `t_us`; it must lie on this series' grid.
+    pub fn push(&mut self, t_us: i64, field: &VectorField) -> crate::Result<()> {
+        if field.x != self.x || field.y != self.y {
+            return Err(crate::Error::parameter(
+                "field",
+                format!(
+                    "field at {t_us} µs is on a {}×{} grid, the series on {}×{}",
+                    field.width(),
+                    field.height(),
+                    self.x.len(),
+                    self.y.len()
+                ),
+            ));
+        }
+        self.t_us.push(t_us);
+        self.u.extend_from_slice(&field.u);
+        self.v.extend_from_slice(&field.v);
+        self.status.extend_from_slice(&field.status);
+        self.peak.extend_from_slice(&field.peak);
+        self.peak_ratio.extend_from_slice(&field.peak_ratio);
+        self.event_count.extend_from_slice(&field.event_count);
+        Ok(())
+    }
+
+    /// A copy of the field at time index `t`.
+    pub fn field(&self, t: usize) -> VectorField {
+        let n = self.field_len();
+        let r = t * n..(t + 1) * n;
+        VectorField {
+            x: self.x.clone(),
+            y: self.y.clone(),
+            u: self.u[r.clone()].to_vec(),
+            v: self.v[r.clone()].to_vec(),
+            status: self.status[r.clone()].to_vec(),
+            peak: self.peak[r.clone()].to_vec(),
+            peak_ratio: self.peak_ratio[r.clone()].to_vec(),
+            event_count: self.event_count[r].to_vec(),
+        }
+    }
+
+    /// Value of a named attribute, if set.
+    pub fn attribute(&self, name: &str) -> Option<&str> {
+        self.attributes
+            .iter()
+            .find(|(k, _)| k == name)
+            .map(|(_, v)| v.as_str())
+    }
+
     /// Grid positions `start, start + step, …` up to `end` inclusive.
     pub fn axis(start: f64, end: f64, step: f64) -> Vec<f64> {
         let valid = step > 0.0 && end >= start && (end - start) / step < 1e7;
@@ -53,5 +380,59 @@ impl FieldSeries {
         }
         let n = ((end - start) / step + 1e-9).floor() as usize + 1;
         (0..n).map(|i| start + i as f64 * step).collect()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn sample_interpolates_and_skips_missing_nodes() {
+        let mut f = VectorField::new(vec![0.0, 10.0], vec![0.0, 10.0]);
+        for (i, u) in [1.0f32, 3.0, 1.0, 3.0].into_iter().enumerate() {
+            f.u[i] = u;
+            f.v[i] = -u;
+            f.status[i] = Status::VALID;
+        }
+        let s = f.sample(5.0, 5.0).unwrap();
+        assert!((s[0] - 2.0).abs() < 1e-12 && (s[1] + 2.0).abs() < 1e-12);
+        // Outside the grid: clamped to the edge.
+        assert_eq!(f.sample(-5.0, 0.0).unwrap()[0], 1.0);
+        f.invalidate(1, Status::MEDIAN_TEST);
+        f.invalidate(3, Status::MEDIAN_TEST);
+        assert_eq!(f.sample(9.0, 5.0).unwrap()[0], 1.0);
+        f.invalidate(0, Status::MEDIAN_TEST);
+        f.invalidate(2, Status::MEDIAN_TEST);
+        assert!(f.sample(5.0, 5.0).is_none());
+    }
+
+    #[test]
+    fn calibration_flips_position_and_velocity_together() {
+        let c = Calibration {
+            mm_per_px: 0.05,
+            origin_px: [10.0, 100.0],
+            y_up: true,
+        };
+        assert!((c.x_mm(30.0) - 1.0).abs() < 1e-12);
+        assert!((c.y_mm(80.0) - 1.0).abs() < 1e-12);
+        let (u, v) = c.velocity_m_per_s(2.0, 4.0);
+        assert!((u - 0.1).abs() < 1e-6 && (v + 0.2).abs() < 1e-6);
+        assert!(Calibration {
+            mm_per_px: 0.0,
+            ..c
+        }
+        .validate()
+        .is_err());
+    }
+
+    #[test]
+    fn push_rejects_other_grids() {
+        let mut s = FieldSeries::on_grid(vec![0.0, 1.0], vec![0.0]);
+        s.push(5, &VectorField::new(vec![0.0, 1.0], vec![0.0]))
+            .unwrap();
+        assert!(s.push(6, &VectorField::new(vec![0.0], vec![0.0])).is_err());
+        assert_eq!(s.t_us, vec![5]);
+        assert_eq!(s.field(0).status, vec![Status::NO_EVENTS; 2]);
     }
 }

@@ -5,19 +5,27 @@
 //! Exp. Fluids 63:101 (2022). This crate holds all the science; the `ebiv` binary in
 //! `ebiv-cli` only parses options and reports progress.
 //!
-//! Layers (lowest first): data types ([`event`]), file input/output ([`io`]), statistics
-//! ([`stats`]), figures ([`render`]).
+//! Layers (lowest first): data types ([`event`], [`field`], [`grid`]), file input/output
+//! ([`io`]) and simulation ([`sim`]), tiled time slabs ([`volume`]), window estimators
+//! ([`estimate`]), validation ([`validate`]), field processing ([`process`]), outputs
+//! ([`export`], [`render`]).
 
+pub mod assess;
 pub mod error;
+pub mod estimate;
 pub mod event;
 pub mod export;
 pub mod field;
 pub mod filter;
+pub mod grid;
 pub mod io;
+pub mod process;
 pub mod render;
 pub mod sim;
 pub mod stats;
 pub mod units;
+pub mod validate;
+pub mod volume;
 
 pub use error::{Error, Result};
 pub use event::{Event, EventBuffer, Geometry, Polarity, PolaritySelection, Trigger};

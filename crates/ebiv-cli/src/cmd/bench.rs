@@ -21,6 +21,10 @@ pub enum BenchWhat {
     /// Event generation rate of the simulator on a scenario (default: the `paper-rate`
     /// example, 1280x720 at about 20 M events/s) with the full `gen4` sensor model.
     Simulate(SimulateBenchArgs),
+    /// Time per second of recording of both estimators at the EBIV paper's data rate and
+    /// settings (simulated 1280x720 at about 20 M events/s, 40x40 px windows, 20 px step,
+    /// T = 10 ms, 100 fields per second).
+    Process(super::bench_process::ProcessBenchArgs),
 }
 
 #[derive(Debug, Args)]
@@ -51,6 +55,7 @@ pub fn run(args: &BenchArgs) -> Result<(), ebiv::Error> {
     match &args.what {
         BenchWhat::Decode(a) => decode(a),
         BenchWhat::Simulate(a) => simulate(a),
+        BenchWhat::Process(a) => super::bench_process::run(a),
     }
 }
 

@@ -1,37 +1,63 @@
-//! `ebiv demo`: the whole foundation on a built-in example, with no input files.
+//! `ebiv demo`: the whole chain on a built-in example, with no input files: simulate a
+//! Lamb–Oseen vortex in a uniform stream through the gen4 sensor model, write and re-read
+//! the recording, measure its velocity field with both estimators, compare with the truth.
 
+use super::process_run::describe_passes;
+use crate::progress::count_bar;
 use clap::Args;
+use ebiv::assess::{field_errors, ErrorStats};
+use ebiv::estimate::corrsum::{CorrSumParams, SumOfCorrelation};
+use ebiv::estimate::motion::{ContrastMaximization, MotionParams};
+use ebiv::estimate::Estimator;
+use ebiv::field::FieldSeries;
+use ebiv::grid::GridSpec;
 use ebiv::io::{write, Format, ReadOptions};
-use ebiv::render::{save_png, time_coded_image, upscale, EventRateMap};
-
-use ebiv::stats::RecordingStats;
-use ebiv::PolaritySelection;
-use std::path::PathBuf;
+use ebiv::process::{process_recording, MemorySource, ProcessParams};
+use ebiv::render::{
+    save_png, time_coded_image, upscale, vector_map, velocity_histograms, HistogramStyle,
+    VectorMapStyle,
+};
+use ebiv::sim::simulation::Simulation;
+use ebiv::{EventBuffer, PolaritySelection};
+use std::path::{Path, PathBuf};
 use std::time::Instant;
 
-/// The demo scene: particles on a turntable seen by the `gen4` sensor model.
+/// The demo scene: a Lamb–Oseen vortex carried by a uniform stream, seen by the gen4 model.
 const DEMO_SCENARIO: &str = r#"
 seed = 1
-duration = "50ms"
+duration = "60ms"
 
 [sensor]
-width = 320
-height = 240
+width = 384
+height = 256
 preset = "gen4"
 
 [flow]
-type = "solid_body"
-centre = [159.5, 119.5]
-omega = 0.01
+type = "superposition"
+
+[[flow.flows]]
+type = "uniform"
+u = 1.0
+v = 0.0
+
+[[flow.flows]]
+type = "lamb_oseen"
+centre = [191.5, 127.5]
+circulation = 800.0
+core_radius = 30.0
 
 [particles]
 density = 0.006
 diameter = 2.5
-brightness = 10.0
+brightness = 20.0
 "#;
 
-/// Simulate seeded particles on a turntable, write the recording as a Prophesee EVT 3.0 RAW
-/// file, read it back, check that nothing changed, and draw the event images.
+/// Field times of the demo, µs: one field every 10 ms once the scene has settled.
+const FIELD_TIMES: [i64; 4] = [20_000, 30_000, 40_000, 50_000];
+
+/// Simulate a Lamb–Oseen vortex in a uniform stream, write it as a Prophesee EVT 3.0 RAW
+/// file, read it back, measure its velocity by sum of correlation and by motion
+/// compensation, and print both fields' errors against the known flow.
 #[derive(Debug, Args)]
 pub struct DemoArgs {
     /// Folder for the outputs (created if missing).
@@ -50,77 +76,153 @@ pub fn run(args: &DemoArgs) -> Result<(), ebiv::Error> {
     let g = sim.geometry;
     let started = Instant::now();
     let events = sim.run(None, &|_| {})?.events;
-    let (u_corner, v_corner) = sim.flow.velocity(0.0, 0.0, 0.0);
     println!(
-        "simulated {} events: particles on a turntable, {g} sensor (gen4 model), {} ms, corner speed {:.2} px/ms, in {:.2} s",
+        "simulated {} events: a Lamb–Oseen vortex (peak {:.1} px/ms) in a 1 px/ms stream, {g} sensor (gen4 model), {} ms, in {:.2} s",
         events.len(),
+        peak_speed(&sim),
         scenario.duration / 1000,
-        u_corner.hypot(v_corner),
         started.elapsed().as_secs_f64()
     );
+    let events = write_and_read_back(&events, &sim, &args.output)?;
 
-    let raw = args.output.join("turntable.raw");
-    let mut writer = write::create(&raw, Format::Evt3, Some(g))?;
-    writer.write(&events)?;
-    writer.finish()?;
-    let size = std::fs::metadata(&raw).map(|m| m.len()).unwrap_or(0);
+    let image = time_coded_image(&events, g, 30_000, 2_500, PolaritySelection::Positive);
+    let events_png = args.output.join("events.png");
+    save_png(&upscale(&image.image, 2), &events_png)?;
     println!(
-        "wrote {} (Prophesee RAW EVT 3.0, {size} bytes)",
-        raw.display()
+        "wrote {}: ON events within ±2.5 ms of t = 30 ms, past blue, present white, future red",
+        events_png.display()
     );
 
-    let started = Instant::now();
+    let params = ProcessParams {
+        passes: vec![GridSpec::square(64, 32), GridSpec::square(32, 16)],
+        ..ProcessParams::default()
+    };
+    println!(
+        "measuring {} fields ({}), positive events, T = 10 ms:",
+        FIELD_TIMES.len(),
+        describe_passes(&params)
+    );
+    let corrsum = SumOfCorrelation::new(CorrSumParams::default())?;
+    let motion = ContrastMaximization::new(MotionParams::default())?;
+    measure(&corrsum, "corrsum", &sim, &events, &params, &args.output)?;
+    measure(&motion, "motion", &sim, &events, &params, &args.output)?;
+    println!(
+        "next: ebiv process {} --method motion --png figures    (ebiv process --help)",
+        args.output.join("vortex.raw").display()
+    );
+    Ok(())
+}
+
+/// Largest speed of the demo flow on a 1 px grid at t = 0.
+fn peak_speed(sim: &Simulation) -> f64 {
+    let g = sim.geometry;
+    (0..g.height)
+        .flat_map(|y| (0..g.width).map(move |x| (x as f64, y as f64)))
+        .map(|(x, y)| {
+            let (u, v) = sim.flow.velocity(x, y, 0.0);
+            u.hypot(v)
+        })
+        .fold(0.0, f64::max)
+}
+
+/// Write `events` as EVT 3.0 RAW, read the file back and check that nothing changed.
+fn write_and_read_back(
+    events: &EventBuffer,
+    sim: &Simulation,
+    dir: &Path,
+) -> Result<EventBuffer, ebiv::Error> {
+    let raw = dir.join("vortex.raw");
+    let mut writer = write::create(&raw, Format::Evt3, Some(sim.geometry))?;
+    writer.write(events)?;
+    writer.finish()?;
     let back = ebiv::io::read_all(&raw, &ReadOptions::default())?;
-    let seconds = started.elapsed().as_secs_f64();
-    if back.events != events {
+    if back.events != *events {
         return Err(ebiv::Error::Write {
             what: raw.display().to_string(),
             message: "the file read back differs from the events written".into(),
         });
     }
+    let size = std::fs::metadata(&raw).map(|m| m.len()).unwrap_or(0);
     println!(
-        "read it back: {} events, identical to what was written ({:.1} Mev/s)",
-        back.events.len(),
-        back.events.len() as f64 / seconds * 1e-6
-    );
-    let mut stats = RecordingStats::new();
-    stats.add(&back.events);
-    println!(
-        "  ON {} / OFF {}, mean rate {:.2} Mev/s, peak {:.2} Mev/s",
-        stats.on,
-        stats.events - stats.on,
-        stats.mean_rate() * 1e-6,
-        stats.peak_rate() * 1e-6
-    );
-
-    let image = time_coded_image(
-        &events,
-        g,
-        scenario.duration / 2,
-        2_500,
-        PolaritySelection::Positive,
-    );
-    let events_png = args.output.join("events.png");
-    save_png(&upscale(&image.image, 2), &events_png)?;
-    println!(
-        "wrote {}: {} ON events within ±2.5 ms of t = 25 ms, past blue, present white, future red",
-        events_png.display(),
-        image.events
-    );
-    let mut map = EventRateMap::new(g);
-    map.add(&events, i64::MIN, i64::MAX, PolaritySelection::Both);
-    let rate = map.render(Some(scenario.duration));
-    let rate_png = args.output.join("rate.png");
-    save_png(&upscale(&rate.image, 2), &rate_png)?;
-    println!(
-        "wrote {}: events per pixel per second (colour bar up to {:.0}/s)",
-        rate_png.display(),
-        rate.max_rate
-    );
-    println!(
-        "next: ebiv info {}    ebiv render {} -o my.png --t0 10ms --dt 4ms",
-        raw.display(),
+        "wrote {} (Prophesee RAW EVT 3.0, {size} bytes) and read it back identical",
         raw.display()
     );
-    Ok(())
+    Ok(back.events)
+}
+
+/// Process the demo events with one estimator, write its field and figures, print errors.
+fn measure<E: Estimator>(
+    estimator: &E,
+    name: &str,
+    sim: &Simulation,
+    events: &EventBuffer,
+    params: &ProcessParams,
+    dir: &Path,
+) -> Result<ErrorStats, ebiv::Error> {
+    let started = Instant::now();
+    let bar = count_bar(FIELD_TIMES.len() as u64, name);
+    let mut source = MemorySource::new(events);
+    let (mut series, _) = process_recording(
+        &mut source,
+        sim.geometry,
+        estimator,
+        params,
+        &FIELD_TIMES,
+        &mut |d| bar.set_position(d.done as u64),
+    )?;
+    bar.finish_and_clear();
+    let seconds = started.elapsed().as_secs_f64();
+    series.attributes.push((
+        "source".into(),
+        "ebiv demo: simulated Lamb-Oseen vortex".into(),
+    ));
+    let errors = field_errors(&series, |x, y, t| sim.flow.velocity(x, y, t));
+    println!("  {name:8} {errors}  ({seconds:.2} s)");
+    let nc = dir.join(format!("flow_{name}.nc"));
+    ebiv::export::write_field(&series, &nc)?;
+    ebiv::export::write_field(&series, &dir.join(format!("flow_{name}.csv")))?;
+    write_figures(&series, name, sim, events, dir)?;
+    println!(
+        "           wrote {}, flow_{name}.csv, vectors_{name}.png, histograms_{name}.png",
+        nc.display()
+    );
+    Ok(errors)
+}
+
+/// Vector map of the middle field over its events, and the velocity histograms.
+fn write_figures(
+    series: &FieldSeries,
+    name: &str,
+    sim: &Simulation,
+    events: &EventBuffer,
+    dir: &Path,
+) -> Result<(), ebiv::Error> {
+    let k = series.t_us.len() / 2;
+    let t0 = series.t_us[k];
+    let background = time_coded_image(events, sim.geometry, t0, 5_000, PolaritySelection::Positive);
+    let style = VectorMapStyle {
+        title: Some(format!("{name}, t = {} ms", t0 / 1000)),
+        ..VectorMapStyle::default()
+    };
+    let map = vector_map(
+        &series.field(k),
+        sim.geometry,
+        Some(&background.image),
+        &style,
+    );
+    save_png(&map, &dir.join(format!("vectors_{name}.png")))?;
+    let valid: Vec<usize> = (0..series.u.len())
+        .filter(|&i| series.status[i].is_valid())
+        .collect();
+    let u: Vec<f32> = valid.iter().map(|&i| series.u[i]).collect();
+    let v: Vec<f32> = valid.iter().map(|&i| series.v[i]).collect();
+    let hist = velocity_histograms(
+        &u,
+        &v,
+        &HistogramStyle {
+            title: Some(format!("{name}: {} valid vectors", u.len())),
+            ..HistogramStyle::default()
+        },
+    );
+    save_png(&hist, &dir.join(format!("histograms_{name}.png")))
 }

@@ -1,9 +1,13 @@
 //! One module per subcommand.
 
 pub mod bench;
+pub mod bench_process;
 pub mod convert;
 pub mod demo;
 pub mod info;
+pub mod process;
+pub mod process_config;
+pub mod process_run;
 pub mod render;
 pub mod simulate;
 

@@ -1,30 +1,361 @@
-//! Writers for vector fields: NetCDF (MATLAB `ncread`, xarray, ParaView) and CSV.
+//! Writers for vector fields ([`FieldSeries`]): NetCDF (MATLAB `ncread`, xarray, ParaView),
+//! NumPy `.npz`, CSV, Tecplot ASCII and legacy VTK, chosen by [`write_field`] from the file
+//! extension.
+//!
+//! Every writer states the axis convention and units, writes invalid vectors as NaN (or, where
+//! the format cannot carry NaN, as documented per format) next to the status flags, applies
+//! the series' [`Calibration`](crate::field::Calibration) the same way (positions in mm,
+//! velocities in m/s, `y` and `v` flipped together when `y_up`), and writes through a
+//! temporary `<name>.partial` file that is renamed when complete.
 
 mod csv;
 mod netcdf;
+mod npz;
+mod tecplot;
+mod vtk;
 
-pub use self::csv::write_field_csv;
+pub use self::csv::{write_field_csv, CSV_HEADER};
 pub use self::netcdf::write_field_netcdf;
+pub use self::npz::write_field_npz;
+pub use self::tecplot::{write_field_tecplot, TECPLOT_MISSING};
+pub use self::vtk::{vtk_series_paths, write_field_vtk};
+
+use crate::error::{Error, Result};
+use crate::field::{Calibration, FieldSeries, Status};
+use std::io::{BufWriter, Write};
+use std::path::{Path, PathBuf};
+
+/// File extensions [`write_field`] understands, with the format each selects.
+pub const FIELD_EXTENSIONS: [(&str, &str); 6] = [
+    ("nc", "NetCDF-3"),
+    ("npz", "NumPy"),
+    ("csv", "CSV"),
+    ("dat", "Tecplot ASCII"),
+    ("tec", "Tecplot ASCII"),
+    ("vtk", "legacy VTK"),
+];
+
+/// Write `field` in the format given by the extension of `path` (case-insensitive): `.nc`
+/// ([`write_field_netcdf`]), `.npz` ([`write_field_npz`]), `.csv` ([`write_field_csv`]),
+/// `.dat` or `.tec` ([`write_field_tecplot`]), `.vtk` ([`write_field_vtk`]).
+pub fn write_field(field: &FieldSeries, path: &Path) -> Result<()> {
+    let ext = path
+        .extension()
+        .and_then(|e| e.to_str())
+        .map(str::to_ascii_lowercase)
+        .unwrap_or_default();
+    match ext.as_str() {
+        "nc" => write_field_netcdf(field, path),
+        "npz" => write_field_npz(field, path),
+        "csv" => write_field_csv(field, path),
+        "dat" | "tec" => write_field_tecplot(field, path),
+        "vtk" => write_field_vtk(field, path),
+        _ => {
+            let known = FIELD_EXTENSIONS
+                .iter()
+                .map(|(e, f)| format!(".{e} ({f})"))
+                .collect::<Vec<_>>()
+                .join(", ");
+            let seen = if ext.is_empty() {
+                "no extension".to_string()
+            } else {
+                format!("the extension `.{ext}`")
+            };
+            Err(Error::unsupported(
+                path.display().to_string(),
+                format!("cannot tell the field format from {seen}; use one of {known}"),
+            ))
+        }
+    }
+}
 
 /// Ground-truth particle tracks as CSV: header `id,t_us,x,y,z,u,v` (px, µs, px/ms).
-pub fn write_tracks_csv(
-    tracks: &[crate::sim::simulation::TrackPoint],
-    path: &std::path::Path,
-) -> crate::Result<()> {
-    use std::io::Write;
-    let temp = netcdf::partial_path(path);
-    let io = |e: std::io::Error| crate::Error::io(path, e);
-    let mut w = std::io::BufWriter::new(std::fs::File::create(&temp).map_err(io)?);
-    writeln!(w, "id,t_us,x,y,z,u,v").map_err(io)?;
-    for p in tracks {
-        writeln!(
-            w,
-            "{},{},{},{},{},{},{}",
-            p.id, p.t_us, p.x, p.y, p.z, p.u, p.v
-        )
-        .map_err(io)?;
+pub fn write_tracks_csv(tracks: &[crate::sim::simulation::TrackPoint], path: &Path) -> Result<()> {
+    write_atomic(path, |w| {
+        writeln!(w, "id,t_us,x,y,z,u,v")?;
+        for p in tracks {
+            writeln!(
+                w,
+                "{},{},{},{},{},{},{}",
+                p.id, p.t_us, p.x, p.y, p.z, p.u, p.v
+            )?;
+        }
+        Ok(())
+    })
+}
+
+/// `path` with `.partial` appended: outputs are written there and renamed when complete.
+pub(crate) fn partial_path(path: &Path) -> PathBuf {
+    let mut name = path.file_name().unwrap_or_default().to_os_string();
+    name.push(".partial");
+    path.with_file_name(name)
+}
+
+/// Write `path` through `<path>.partial` with a buffered writer; the partial file is synced
+/// and renamed on success and removed on failure. I/O errors name `path`.
+pub(crate) fn write_atomic(
+    path: &Path,
+    body: impl FnOnce(&mut BufWriter<std::fs::File>) -> std::io::Result<()>,
+) -> Result<()> {
+    let temp = partial_path(path);
+    let result = (|| {
+        let file = std::fs::File::create(&temp)?;
+        let mut w = BufWriter::with_capacity(1 << 18, file);
+        body(&mut w)?;
+        let file = w.into_inner().map_err(|e| e.into_error())?;
+        file.sync_all()?;
+        drop(file);
+        std::fs::rename(&temp, path)
+    })();
+    result.map_err(|e| {
+        let _ = std::fs::remove_file(&temp);
+        Error::io(path, e)
+    })
+}
+
+/// Reject a series whose arrays do not match its grid and times (they would index out of
+/// bounds) or whose calibration is unusable.
+pub(crate) fn check(field: &FieldSeries) -> Result<()> {
+    let n = field
+        .x
+        .len()
+        .checked_mul(field.y.len())
+        .and_then(|n| n.checked_mul(field.t_us.len()))
+        .ok_or_else(|| Error::parameter("field", "grid size overflows"))?;
+    let lengths = [
+        ("u", field.u.len()),
+        ("v", field.v.len()),
+        ("status", field.status.len()),
+        ("peak", field.peak.len()),
+        ("peak_ratio", field.peak_ratio.len()),
+        ("event_count", field.event_count.len()),
+    ];
+    for (name, len) in lengths {
+        if len != n {
+            return Err(Error::parameter(
+                "field",
+                format!(
+                    "`{name}` holds {len} values, the grid {} × {} × {} times needs {n}",
+                    field.x.len(),
+                    field.y.len(),
+                    field.t_us.len()
+                ),
+            ));
+        }
     }
-    w.flush().map_err(io)?;
-    drop(w);
-    std::fs::rename(&temp, path).map_err(io)
+    if let Some(c) = &field.calibration {
+        c.validate()?;
+    }
+    Ok(())
+}
+
+/// Positions and velocities of a series in physical units (mm, m/s), `y` and `v` flipped
+/// together when the calibration says `y_up`.
+pub(crate) struct Physical {
+    /// Grid column positions, mm.
+    pub x_mm: Vec<f64>,
+    /// Grid row positions, mm.
+    pub y_mm: Vec<f64>,
+    /// x velocity, m/s, indexed like the series.
+    pub u: Vec<f32>,
+    /// y velocity, m/s (positive up when `y_up`).
+    pub v: Vec<f32>,
+}
+
+impl Physical {
+    /// Apply `c` to `field`.
+    pub fn new(field: &FieldSeries, c: &Calibration) -> Self {
+        let (u, v) = field
+            .u
+            .iter()
+            .zip(&field.v)
+            .map(|(&u, &v)| {
+                let (u, v) = c.velocity_m_per_s(u, v);
+                (u + 0.0, v + 0.0)
+            })
+            .unzip();
+        // `+ 0.0` turns the -0 of a flipped zero into 0, so text files do not show `-0`.
+        Physical {
+            x_mm: field.x.iter().map(|&x| c.x_mm(x) + 0.0).collect(),
+            y_mm: field.y.iter().map(|&y| c.y_mm(y) + 0.0).collect(),
+            u,
+            v,
+        }
+    }
+}
+
+/// Positions and velocities as written: physical when the series is calibrated, image
+/// coordinates (px, px/ms) otherwise, with the unit names.
+pub(crate) struct Written<'a> {
+    /// Column positions.
+    pub x: std::borrow::Cow<'a, [f64]>,
+    /// Row positions.
+    pub y: std::borrow::Cow<'a, [f64]>,
+    /// x velocity.
+    pub u: std::borrow::Cow<'a, [f32]>,
+    /// y velocity.
+    pub v: std::borrow::Cow<'a, [f32]>,
+    /// Unit of x and y.
+    pub length_unit: &'static str,
+    /// Unit of u and v.
+    pub velocity_unit: &'static str,
+}
+
+impl<'a> Written<'a> {
+    /// The written view of `field`.
+    pub fn new(field: &'a FieldSeries) -> Self {
+        use std::borrow::Cow;
+        match &field.calibration {
+            Some(c) => {
+                let p = Physical::new(field, c);
+                Written {
+                    x: Cow::Owned(p.x_mm),
+                    y: Cow::Owned(p.y_mm),
+                    u: Cow::Owned(p.u),
+                    v: Cow::Owned(p.v),
+                    length_unit: "mm",
+                    velocity_unit: "m/s",
+                }
+            }
+            None => Written {
+                x: Cow::Borrowed(&field.x),
+                y: Cow::Borrowed(&field.y),
+                u: Cow::Borrowed(&field.u),
+                v: Cow::Borrowed(&field.v),
+                length_unit: "px",
+                velocity_unit: "px/ms",
+            },
+        }
+    }
+}
+
+/// One sentence stating the axis convention of what is written for `field`.
+pub(crate) fn axis_convention(field: &FieldSeries) -> String {
+    match &field.calibration {
+        None => "image coordinates: x to the right, y down, pixel centres at integers; \
+                 positions in px, velocities in px/ms"
+            .to_string(),
+        Some(c) => format!(
+            "physical coordinates: x to the right, y {}, origin at image point ({}, {}) px, \
+             {} mm per px; positions in mm, velocities in m/s (v positive {})",
+            if c.y_up { "up" } else { "down" },
+            c.origin_px[0],
+            c.origin_px[1],
+            c.mm_per_px,
+            if c.y_up { "up" } else { "down" },
+        ),
+    }
+}
+
+/// The software that wrote a file.
+pub(crate) const SOFTWARE: &str = concat!("ebiv ", env!("CARGO_PKG_VERSION"));
+
+/// Descriptive metadata for formats with free-form key/value attributes: the writer's own
+/// entries (software, axis convention, units, status legend, calibration), then the series'
+/// `attributes`. Keys are sanitised to `[A-Za-z_][A-Za-z0-9_]*` and made unique; a series
+/// attribute whose key the writer uses itself is kept with a `user_` prefix.
+pub(crate) fn metadata(field: &FieldSeries) -> Vec<(String, String)> {
+    let w = Written::new(field);
+    let mut own = vec![
+        ("software".to_string(), SOFTWARE.to_string()),
+        ("axis_convention".to_string(), axis_convention(field)),
+        ("time_units".to_string(), "us".to_string()),
+        ("length_units".to_string(), w.length_unit.to_string()),
+        ("velocity_units".to_string(), w.velocity_unit.to_string()),
+        (
+            "status_flags".to_string(),
+            format!("0 valid; bits: {}", Status::legend()),
+        ),
+    ];
+    if let Some(c) = &field.calibration {
+        own.push(("mm_per_px".into(), c.mm_per_px.to_string()));
+        own.push((
+            "origin_px".into(),
+            format!("{} {}", c.origin_px[0], c.origin_px[1]),
+        ));
+        own.push((
+            "y_positive".into(),
+            if c.y_up { "up" } else { "down" }.into(),
+        ));
+    }
+    let reserved: Vec<String> = own.iter().map(|(k, _)| k.clone()).collect();
+    let mut out = own;
+    for (k, v) in &field.attributes {
+        let mut key = sanitize_name(k);
+        if reserved.contains(&key) {
+            key = format!("user_{key}");
+        }
+        out.push((unique_key(&out, key), v.clone()));
+    }
+    out
+}
+
+/// `name` with every character outside `[A-Za-z0-9_]` replaced by `_`, prefixed with `a_` if
+/// it is empty or does not start with a letter or `_` (NetCDF, Tecplot AUXDATA names).
+pub(crate) fn sanitize_name(name: &str) -> String {
+    let mut s: String = name
+        .chars()
+        .map(|c| if c.is_ascii_alphanumeric() { c } else { '_' })
+        .collect();
+    if !s.starts_with(|c: char| c.is_ascii_alphabetic() || c == '_') {
+        s.insert_str(0, "a_");
+    }
+    s
+}
+
+/// `key`, or `key_2`, `key_3`, … if `key` is taken in `existing`.
+fn unique_key(existing: &[(String, String)], key: String) -> String {
+    let taken = |k: &str| existing.iter().any(|(e, _)| e == k);
+    if !taken(&key) {
+        return key;
+    }
+    (2..)
+        .map(|i| format!("{key}_{i}"))
+        .find(|k| !taken(k))
+        .unwrap_or(key)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn unknown_extension_names_the_supported_ones() {
+        let f = FieldSeries::new(vec![0.0], vec![0.0], vec![0]);
+        let dir = tempfile::tempdir().unwrap();
+        let e = write_field(&f, &dir.path().join("f.xyz")).unwrap_err();
+        let text = e.to_string();
+        assert!(text.contains(".xyz") && text.contains(".nc") && text.contains(".vtk"));
+        assert!(write_field(&f, &dir.path().join("noext")).is_err());
+        assert!(!dir.path().join("f.xyz").exists());
+    }
+
+    #[test]
+    fn metadata_keys_are_sanitised_and_unique() {
+        let mut f = FieldSeries::new(vec![0.0], vec![0.0], vec![0]);
+        f.attributes.push(("source file".into(), "a".into()));
+        f.attributes.push(("source-file".into(), "b".into()));
+        f.attributes.push(("software".into(), "other".into()));
+        f.attributes.push(("3d".into(), "no".into()));
+        let m = metadata(&f);
+        let get = |k: &str| m.iter().find(|(n, _)| n == k).map(|(_, v)| v.as_str());
+        assert_eq!(get("source_file"), Some("a"));
+        assert_eq!(get("source_file_2"), Some("b"));
+        assert_eq!(get("software"), Some(SOFTWARE));
+        assert_eq!(get("user_software"), Some("other"));
+        assert_eq!(get("a_3d"), Some("no"));
+    }
+
+    #[test]
+    fn inconsistent_arrays_are_an_error_not_a_panic() {
+        let mut f = FieldSeries::new(vec![0.0, 1.0], vec![0.0], vec![0]);
+        f.peak.pop();
+        let dir = tempfile::tempdir().unwrap();
+        for ext in ["nc", "npz", "csv", "dat", "vtk"] {
+            let path = dir.path().join(format!("f.{ext}"));
+            let e = write_field(&f, &path).unwrap_err();
+            assert!(e.to_string().contains("peak"), "{ext}: {e}");
+            assert!(!path.exists());
+        }
+    }
 }

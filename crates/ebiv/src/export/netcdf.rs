@@ -1,19 +1,18 @@
-//! Vector fields as NetCDF-3 classic files: dimensions (time, y, x); coordinate variables
-//! `time` (µs), `y`, `x` (px); data variables `u`, `v` (px/ms, NaN = invalid); attributes
-//! stating units, the axis convention and how the field was made (CF conventions where they
-//! apply). NetCDF-3 is read natively by MATLAB `ncread`, xarray and ParaView.
+//! Vector fields as NetCDF-3 files (64-bit offset; Unidata NetCDF "Classic and 64-bit
+//! Offset" format specification), following the CF conventions (CF-1.8) where they apply.
+//!
+//! Dimensions `(time, y, x)`. Coordinate variables `time` (µs), `y`, `x` (px, or mm with a
+//! calibration, then also `x_px`, `y_px`); data variables `u`, `v` (px/ms or m/s, NaN =
+//! invalid), `status` (`short`, CF flag variable: `flag_masks`, `flag_meanings`), `peak`,
+//! `peak_ratio` (`float`), `event_count` (`int`). Global attributes state the axis
+//! convention, the software, the calibration and every attribute of the series. NetCDF-3 is
+//! read natively by MATLAB `ncread`, xarray and ParaView.
 
+use super::{axis_convention, check, partial_path, sanitize_name, Written, SOFTWARE};
 use crate::error::{Error, Result};
-use crate::field::FieldSeries;
+use crate::field::{FieldSeries, Status};
 use netcdf3::{DataSet, FileWriter, Version};
-use std::path::{Path, PathBuf};
-
-/// `path` with `.partial` appended: outputs are written there and renamed when complete.
-pub(crate) fn partial_path(path: &Path) -> PathBuf {
-    let mut name = path.file_name().unwrap_or_default().to_os_string();
-    name.push(".partial");
-    path.with_file_name(name)
-}
+use std::path::Path;
 
 fn nc_err(path: &Path, e: impl std::fmt::Debug) -> Error {
     Error::Write {
@@ -22,9 +21,37 @@ fn nc_err(path: &Path, e: impl std::fmt::Debug) -> Error {
     }
 }
 
+/// Global attributes the writer sets itself; series attributes of the same (sanitised) name
+/// are written with a `user_` prefix.
+const OWN_GLOBALS: [&str; 8] = [
+    "Conventions",
+    "axis_convention",
+    "software",
+    "status_flags",
+    "mm_per_px",
+    "origin_px",
+    "y_positive",
+    "title",
+];
+
 /// Write `field` to `path` as NetCDF-3 (64-bit offset), through a temporary file.
+///
+/// The status flags are stored as `short` (NetCDF-3 has no unsigned byte, and bit 7 is
+/// used) with CF `flag_masks`/`flag_meanings`. `event_count` is stored as `int`; a count
+/// above `i32::MAX` is an error rather than a silently clipped value.
 pub fn write_field_netcdf(field: &FieldSeries, path: &Path) -> Result<()> {
+    check(field)?;
     let (nt, ny, nx) = (field.t_us.len(), field.y.len(), field.x.len());
+    let event_count: Vec<i32> = field
+        .event_count
+        .iter()
+        .map(|&c| i32::try_from(c))
+        .collect::<Result<_, _>>()
+        .map_err(|_| nc_err(path, "an event count exceeds the NetCDF int range"))?;
+    let status: Vec<i16> = field.status.iter().map(|s| s.0 as i16).collect();
+    let written = Written::new(field);
+    let calibrated = field.calibration.is_some();
+
     let err = |e: netcdf3::error::InvalidDataSet| nc_err(path, e);
     let mut ds = DataSet::new();
     ds.add_fixed_dim("time", nt).map_err(err)?;
@@ -33,46 +60,142 @@ pub fn write_field_netcdf(field: &FieldSeries, path: &Path) -> Result<()> {
     ds.add_var_f64("time", &["time"]).map_err(err)?;
     ds.add_var_f64("y", &["y"]).map_err(err)?;
     ds.add_var_f64("x", &["x"]).map_err(err)?;
-    ds.add_var_f32("u", &["time", "y", "x"]).map_err(err)?;
-    ds.add_var_f32("v", &["time", "y", "x"]).map_err(err)?;
-    let var_attrs: [(&str, &str, &str); 5] = [
-        ("time", "units", "microseconds"),
-        ("y", "units", "pixel"),
-        ("x", "units", "pixel"),
-        ("u", "units", "pixel/millisecond"),
-        ("v", "units", "pixel/millisecond"),
-    ];
-    for (var, key, value) in var_attrs {
-        ds.add_var_attr_string(var, key, value).map_err(err)?;
+    if calibrated {
+        ds.add_var_f64("y_px", &["y"]).map_err(err)?;
+        ds.add_var_f64("x_px", &["x"]).map_err(err)?;
     }
-    ds.add_var_attr_string("y", "positive", "down")
-        .map_err(err)?;
-    ds.add_var_attr_string("u", "long_name", "velocity along x (to the right)")
-        .map_err(err)?;
-    ds.add_var_attr_string("v", "long_name", "velocity along y (downwards, image rows)")
-        .map_err(err)?;
+    let grid = ["time", "y", "x"];
+    ds.add_var_f32("u", &grid).map_err(err)?;
+    ds.add_var_f32("v", &grid).map_err(err)?;
+    ds.add_var_i16("status", &grid).map_err(err)?;
+    ds.add_var_f32("peak", &grid).map_err(err)?;
+    ds.add_var_f32("peak_ratio", &grid).map_err(err)?;
+    ds.add_var_i32("event_count", &grid).map_err(err)?;
+
+    let (length, velocity) = if calibrated {
+        ("mm", "m/s")
+    } else {
+        ("pixel", "pixel/millisecond")
+    };
+    let y_positive = match &field.calibration {
+        Some(c) if c.y_up => "up",
+        _ => "down",
+    };
+    let mut text_attrs: Vec<(&str, &str, String)> = vec![
+        ("time", "units", "microseconds".into()),
+        (
+            "time",
+            "long_name",
+            "time of the field (centre of its time slab)".into(),
+        ),
+        ("time", "axis", "T".into()),
+        ("y", "units", length.into()),
+        ("y", "positive", y_positive.into()),
+        ("y", "axis", "Y".into()),
+        ("y", "long_name", "window centre, y".into()),
+        ("x", "units", length.into()),
+        ("x", "axis", "X".into()),
+        ("x", "long_name", "window centre, x (to the right)".into()),
+        ("u", "units", velocity.into()),
+        ("u", "long_name", "velocity along x (to the right)".into()),
+        ("v", "units", velocity.into()),
+        (
+            "v",
+            "long_name",
+            format!("velocity along y (positive {y_positive})"),
+        ),
+        ("status", "long_name", "vector status flags".into()),
+        (
+            "status",
+            "flag_meanings",
+            Status::NAMES
+                .iter()
+                .map(|(n, _)| *n)
+                .collect::<Vec<_>>()
+                .join(" "),
+        ),
+        (
+            "status",
+            "comment",
+            format!("0 valid; bits: {}", Status::legend()),
+        ),
+        (
+            "peak",
+            "long_name",
+            "peak of the correlation plane or objective".into(),
+        ),
+        (
+            "peak_ratio",
+            "long_name",
+            "first-to-second peak ratio".into(),
+        ),
+        ("peak_ratio", "units", "1".into()),
+        ("peak_ratio", "comment", "NaN where not defined".into()),
+        (
+            "event_count",
+            "long_name",
+            "events used in the window".into(),
+        ),
+        ("event_count", "units", "1".into()),
+    ];
+    if calibrated {
+        text_attrs.extend([
+            ("y_px", "units", "pixel".into()),
+            (
+                "y_px",
+                "long_name",
+                "window centre, image row (down)".into(),
+            ),
+            ("x_px", "units", "pixel".into()),
+            ("x_px", "long_name", "window centre, image column".into()),
+        ]);
+    }
     // No NaN `_FillValue` attribute: netcdf3 compares variables by value, and NaN never
     // equals itself. NaN data are read as NaN by MATLAB, xarray and ParaView anyway.
     for var in ["u", "v"] {
-        ds.add_var_attr_string(var, "comment", "NaN where no valid vector")
-            .map_err(err)?;
+        text_attrs.push((var, "comment", "NaN where no valid vector".into()));
     }
+    for (var, key, value) in &text_attrs {
+        ds.add_var_attr_string(var, key, value).map_err(err)?;
+    }
+    let masks: Vec<i16> = Status::NAMES.iter().map(|(_, s)| s.0 as i16).collect();
+    ds.add_var_attr_i16("status", "flag_masks", masks)
+        .map_err(err)?;
+    ds.add_var_attr_i16("status", "valid_range", vec![0, 255])
+        .map_err(err)?;
+
     ds.add_global_attr_string("Conventions", "CF-1.8")
         .map_err(err)?;
-    ds.add_global_attr_string(
-        "axis_convention",
-        "image coordinates: x to the right, y down, pixel centres at integers",
-    )
-    .map_err(err)?;
-    ds.add_global_attr_string("software", concat!("ebiv ", env!("CARGO_PKG_VERSION")))
+    ds.add_global_attr_string("title", "ebiv vector field series")
         .map_err(err)?;
+    ds.add_global_attr_string("axis_convention", axis_convention(field))
+        .map_err(err)?;
+    ds.add_global_attr_string("software", SOFTWARE)
+        .map_err(err)?;
+    ds.add_global_attr_string("status_flags", Status::legend())
+        .map_err(err)?;
+    if let Some(c) = &field.calibration {
+        ds.add_global_attr_f64("mm_per_px", vec![c.mm_per_px])
+            .map_err(err)?;
+        ds.add_global_attr_f64("origin_px", c.origin_px.to_vec())
+            .map_err(err)?;
+        ds.add_global_attr_string("y_positive", y_positive)
+            .map_err(err)?;
+    }
     for (k, v) in &field.attributes {
-        let key: String = k
-            .chars()
-            .map(|c| if c.is_ascii_alphanumeric() { c } else { '_' })
-            .collect();
+        let mut key = sanitize_name(k);
+        if OWN_GLOBALS.contains(&key.as_str()) {
+            key = format!("user_{key}");
+        }
+        let base = key.clone();
+        let mut i = 2;
+        while ds.has_global_attr(&key) {
+            key = format!("{base}_{i}");
+            i += 1;
+        }
         ds.add_global_attr_string(&key, v).map_err(err)?;
     }
+
     let temp = partial_path(path);
     let times: Vec<f64> = field.t_us.iter().map(|&t| t as f64).collect();
     let werr = |e: netcdf3::error::WriteError| nc_err(path, e);
@@ -80,10 +203,19 @@ pub fn write_field_netcdf(field: &FieldSeries, path: &Path) -> Result<()> {
         let mut w = FileWriter::open(&temp).map_err(werr)?;
         w.set_def(&ds, Version::Offset64Bit, 0).map_err(werr)?;
         w.write_var_f64("time", &times).map_err(werr)?;
-        w.write_var_f64("y", &field.y).map_err(werr)?;
-        w.write_var_f64("x", &field.x).map_err(werr)?;
-        w.write_var_f32("u", &field.u).map_err(werr)?;
-        w.write_var_f32("v", &field.v).map_err(werr)?;
+        w.write_var_f64("y", &written.y).map_err(werr)?;
+        w.write_var_f64("x", &written.x).map_err(werr)?;
+        if calibrated {
+            w.write_var_f64("y_px", &field.y).map_err(werr)?;
+            w.write_var_f64("x_px", &field.x).map_err(werr)?;
+        }
+        w.write_var_f32("u", &written.u).map_err(werr)?;
+        w.write_var_f32("v", &written.v).map_err(werr)?;
+        w.write_var_i16("status", &status).map_err(werr)?;
+        w.write_var_f32("peak", &field.peak).map_err(werr)?;
+        w.write_var_f32("peak_ratio", &field.peak_ratio)
+            .map_err(werr)?;
+        w.write_var_i32("event_count", &event_count).map_err(werr)?;
         w.close().map_err(werr)
     })();
     if let Err(e) = result {
@@ -96,21 +228,37 @@ pub fn write_field_netcdf(field: &FieldSeries, path: &Path) -> Result<()> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::field::Calibration;
 
-    #[test]
-    fn netcdf_round_trip_through_the_reader() {
+    fn series() -> FieldSeries {
         let mut f = FieldSeries::new(vec![0.0, 20.0, 40.0], vec![10.0, 30.0], vec![0, 10_000]);
         for i in 0..f.u.len() {
             f.u[i] = i as f32;
             f.v[i] = -(i as f32);
+            f.status[i] = Status::VALID;
+            f.peak[i] = 0.5 + i as f32;
+            f.peak_ratio[i] = 1.5;
+            f.event_count[i] = 100 + i as u32;
         }
         f.u[3] = f32::NAN;
+        f.v[3] = f32::NAN;
+        f.status[3] = Status::NO_EVENTS | Status::MASKED;
+        f.peak_ratio[3] = f32::NAN;
+        f.status[7] = Status::MEDIAN_TEST | Status::REPLACED;
         f.attributes.push(("source file".into(), "a.raw".into()));
+        f.attributes
+            .push(("software".into(), "something else".into()));
+        f
+    }
+
+    #[test]
+    fn netcdf_round_trip_through_the_reader() {
+        let f = series();
         let dir = tempfile::tempdir().unwrap();
         let path = dir.path().join("f.nc");
         write_field_netcdf(&f, &path).unwrap();
+        let (ds, _) = netcdf3::FileReader::open(&path).unwrap().close();
         let mut r = netcdf3::FileReader::open(&path).unwrap();
-        let ds = r.data_set();
         assert_eq!(ds.dim_size("time"), Some(2));
         assert_eq!(ds.dim_size("y"), Some(2));
         assert_eq!(ds.dim_size("x"), Some(3));
@@ -118,21 +266,103 @@ mod tests {
             ds.get_global_attr_as_string("source_file").as_deref(),
             Some("a.raw")
         );
+        assert_eq!(
+            ds.get_global_attr_as_string("software").as_deref(),
+            Some(SOFTWARE)
+        );
+        assert_eq!(
+            ds.get_global_attr_as_string("user_software").as_deref(),
+            Some("something else")
+        );
+        assert!(!ds.has_var("x_px"));
+        assert_eq!(
+            ds.get_var_attr_as_string("u", "units").as_deref(),
+            Some("pixel/millisecond")
+        );
+        assert_eq!(
+            ds.get_var_attr_as_string("y", "positive").as_deref(),
+            Some("down")
+        );
+        assert_eq!(
+            ds.get_var_attr_i16("status", "flag_masks"),
+            Some(&[1i16, 2, 4, 8, 16, 32, 64, 128][..])
+        );
+        assert_eq!(
+            ds.get_var_attr_as_string("status", "flag_meanings")
+                .unwrap()
+                .split(' ')
+                .count(),
+            8
+        );
         let u = r.read_var_f32("u").unwrap();
         assert_eq!(u.len(), 12);
         assert!(u[3].is_nan());
         assert_eq!(u[5], 5.0);
+        assert_eq!(r.read_var_f32("v").unwrap()[5], -5.0);
         assert_eq!(r.read_var_f64("time").unwrap(), vec![0.0, 10_000.0]);
+        assert_eq!(r.read_var_f64("x").unwrap(), f.x);
+        let status = r.read_var_i16("status").unwrap();
+        assert_eq!(status[3], 129);
+        assert_eq!(status[7], 72);
+        assert_eq!(status[0], 0);
+        assert_eq!(r.read_var_f32("peak").unwrap(), f.peak);
+        let ratio = r.read_var_f32("peak_ratio").unwrap();
+        assert!(ratio[3].is_nan() && ratio[4] == 1.5);
+        let counts = r.read_var_i32("event_count").unwrap();
+        assert_eq!(counts[11], 111);
         assert!(!dir.path().join("f.nc.partial").exists());
     }
 
     #[test]
-    fn csv_has_the_documented_header() {
-        let f = FieldSeries::new(vec![1.0], vec![2.0], vec![5]);
+    fn calibrated_netcdf_is_in_mm_and_m_per_s_with_pixel_coordinates_kept() {
+        let mut f = series();
+        f.calibration = Some(Calibration {
+            mm_per_px: 0.1,
+            origin_px: [20.0, 10.0],
+            y_up: true,
+        });
         let dir = tempfile::tempdir().unwrap();
-        let path = dir.path().join("f.csv");
-        crate::export::write_field_csv(&f, &path).unwrap();
-        let text = std::fs::read_to_string(&path).unwrap();
-        assert_eq!(text, "t_us,x,y,u,v\n5,1,2,NaN,NaN\n");
+        let path = dir.path().join("f.nc");
+        write_field_netcdf(&f, &path).unwrap();
+        let (ds, _) = netcdf3::FileReader::open(&path).unwrap().close();
+        let mut r = netcdf3::FileReader::open(&path).unwrap();
+        assert_eq!(
+            ds.get_var_attr_as_string("u", "units").as_deref(),
+            Some("m/s")
+        );
+        assert_eq!(
+            ds.get_var_attr_as_string("x", "units").as_deref(),
+            Some("mm")
+        );
+        assert_eq!(
+            ds.get_var_attr_as_string("y", "positive").as_deref(),
+            Some("up")
+        );
+        assert_eq!(ds.get_global_attr_f64("mm_per_px"), Some(&[0.1][..]));
+        assert_eq!(ds.get_global_attr_f64("origin_px"), Some(&[20.0, 10.0][..]));
+        let x = r.read_var_f64("x").unwrap();
+        let y = r.read_var_f64("y").unwrap();
+        assert!((x[0] + 2.0).abs() < 1e-12 && (x[2] - 2.0).abs() < 1e-12);
+        // Row 30 px lies 20 px below the origin: 2 mm down, i.e. y = -2 mm with y up.
+        assert!(y[0].abs() < 1e-12 && (y[1] + 2.0).abs() < 1e-12);
+        assert_eq!(r.read_var_f64("x_px").unwrap(), f.x);
+        assert_eq!(r.read_var_f64("y_px").unwrap(), f.y);
+        let u = r.read_var_f32("u").unwrap();
+        let v = r.read_var_f32("v").unwrap();
+        assert!((u[5] - 0.5).abs() < 1e-6);
+        // Image v = -5 px/ms (upwards) becomes +0.5 m/s with y up.
+        assert!((v[5] - 0.5).abs() < 1e-6);
+        assert!(u[3].is_nan() && v[3].is_nan());
+        assert_eq!(r.read_var_i16("status").unwrap()[3], 129);
+    }
+
+    #[test]
+    fn event_counts_beyond_int_are_an_error() {
+        let mut f = series();
+        f.event_count[0] = u32::MAX;
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("f.nc");
+        assert!(write_field_netcdf(&f, &path).is_err());
+        assert!(!path.exists());
     }
 }

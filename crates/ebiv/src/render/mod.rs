@@ -1,12 +1,25 @@
 //! Figures: the images a user looks at first.
 
+mod animation;
+mod arrow;
+mod axes;
 mod colormap;
+mod draw;
 mod event_image;
+pub mod font;
+mod histogram;
+mod palette;
 mod rate_map;
+mod vector_map;
 
+pub use animation::{series_animation, write_gif};
 pub use colormap::{inferno, time_code};
 pub use event_image::{time_coded_image, TimeCodedImage};
+pub use histogram::{
+    histogram, peak_locking_index, valid_components, velocity_histograms, Histogram, HistogramStyle,
+};
 pub use rate_map::{EventRateMap, RateMapImage};
+pub use vector_map::{vector_map, VectorMapStyle};
 
 use crate::error::{Error, Result};
 use std::path::Path;

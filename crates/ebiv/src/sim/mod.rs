@@ -4,6 +4,7 @@
 //! Facts, formulas and the defaults of established simulators are in the project's
 //! `docs/sensor-model.md`.
 
+mod fastmath;
 pub mod flow;
 pub mod ode;
 pub mod particles;

@@ -5,6 +5,7 @@
 //! pixel-integrated Gaussian ("erf form", sensor-model.md §1.1) with s = d_τ/√8, normalised so
 //! that an in-focus particle centred on a pixel gives that pixel its `brightness`.
 
+use super::fastmath::Erf;
 use super::particles::{Particle, SeedingParams};
 use crate::error::{Error, Result};
 use crate::event::Geometry;
@@ -194,6 +195,7 @@ pub struct ParticleRenderer<'a> {
     geometry: Geometry,
     ex: Vec<f64>,
     ey: Vec<f64>,
+    erf: Erf,
 }
 
 impl<'a> ParticleRenderer<'a> {
@@ -209,6 +211,7 @@ impl<'a> ParticleRenderer<'a> {
             geometry,
             ex: Vec::new(),
             ey: Vec::new(),
+            erf: Erf::new(),
         }
     }
 
@@ -256,23 +259,29 @@ impl<'a> ParticleRenderer<'a> {
             return;
         }
         let s = p.diameter / std::f64::consts::SQRT_2 / 2.0;
-        let norm = 2.0 * libm::erf(0.5 / s);
+        let norm = 2.0 * self.erf.eval(0.5 / s);
         let scale = peak / (norm * norm);
-        integrate_axis(&mut self.ex, x0, x1, p.x, s);
-        integrate_axis(&mut self.ey, y0, y1, p.y, s);
+        integrate_axis(self.erf, &mut self.ex, x0, x1, p.x, s);
+        integrate_axis(self.erf, &mut self.ey, y0, y1, p.y, s);
         let walls = !self.illumination.walls.is_empty();
+        let (x0, x1) = (x0 as usize, x1 as usize);
         for (j, yy) in (y0..=y1).enumerate() {
             let wy = self.ey[j] * scale;
             let row = (yy - rows.start as i64) as usize * w as usize;
-            for (i, xx) in (x0..=x1).enumerate() {
+            let span = row + x0..=row + x1;
+            let pixels = acc[span.clone()]
+                .iter_mut()
+                .zip(&mut mark[span])
+                .zip(&self.ex[..=x1 - x0]);
+            for (i, ((a, m), &wx)) in pixels.enumerate() {
+                let xx = x0 + i;
                 if walls && self.illumination.occluded(xx as u32, yy as u32) {
                     continue;
                 }
-                let k = row + xx as usize;
-                acc[k] += (wy * self.ex[i]) as f32;
-                if !mark[k] {
-                    mark[k] = true;
-                    touched.push(k as u32);
+                *a += (wy * wx) as f32;
+                if !*m {
+                    *m = true;
+                    touched.push((row + xx) as u32);
                 }
             }
         }
@@ -280,12 +289,13 @@ impl<'a> ParticleRenderer<'a> {
 }
 
 /// Fraction of a unit Gaussian line spread (scale `s`) falling on each pixel `lo..=hi` around
-/// centre `c`: erf((i − c + ½)/s) − erf((i − c − ½)/s).
-fn integrate_axis(out: &mut Vec<f64>, lo: i64, hi: i64, c: f64, s: f64) {
+/// centre `c`: erf((i − c + ½)/s) − erf((i − c − ½)/s), each to within 1e-15 ([`Erf`]).
+fn integrate_axis(erf: Erf, out: &mut Vec<f64>, lo: i64, hi: i64, c: f64, s: f64) {
     out.clear();
-    let mut left = libm::erf((lo as f64 - c - 0.5) / s);
+    let inv_s = 1.0 / s;
+    let mut left = erf.eval((lo as f64 - c - 0.5) * inv_s);
     for i in lo..=hi {
-        let right = libm::erf((i as f64 - c + 0.5) / s);
+        let right = erf.eval((i as f64 - c + 0.5) * inv_s);
         out.push(right - left);
         left = right;
     }

@@ -90,7 +90,6 @@ struct Band {
     /// Pixels with particle light at the previous sample (band indices).
     lit: Vec<u32>,
     touched: Vec<u32>,
-    changed: Vec<(u32, f32)>,
     events: Vec<SimEvent>,
 }
 
@@ -156,7 +155,6 @@ impl Simulation {
                     mark: vec![false; n],
                     lit: Vec::new(),
                     touched: Vec::new(),
-                    changed: Vec::new(),
                     events: Vec::new(),
                 }
             })
@@ -182,7 +180,6 @@ impl Simulation {
                 band.sensor.adapt(t0, |x, y| {
                     value[(y - rows.start) as usize * g.width as usize + x as usize]
                 });
-                band.changed.clear();
             },
         );
 
@@ -247,6 +244,7 @@ impl Simulation {
                         || ParticleRenderer::new(&self.seeding, &self.illumination, g),
                         |renderer, (b, band)| {
                             for sample in batch {
+                                band.sensor.begin_step(sample.t);
                                 band.render_scaled(
                                     renderer,
                                     &sample.buckets[b],
@@ -256,9 +254,7 @@ impl Simulation {
                                     &self.illumination,
                                     flicker,
                                 );
-                                let changed = std::mem::take(&mut band.changed);
-                                band.sensor.advance(sample.t, &changed, &mut band.events);
-                                band.changed = changed;
+                                band.sensor.advance_marked(&mut band.events);
                             }
                         },
                     )
@@ -382,7 +378,7 @@ impl Band {
         self.touched.clear();
     }
 
-    /// Render a new sample and list the pixels whose irradiance changed.
+    /// Render a new sample and give the sensor the pixels whose irradiance changed.
     #[allow(clippy::too_many_arguments)]
     fn render_scaled(
         &mut self,
@@ -406,42 +402,43 @@ impl Band {
         }
         let w = g.width as usize;
         let row0 = self.rows.start;
-        let offset = row0 as usize * w;
-        self.changed.clear();
         // Without walls the ambient level is the same for every pixel.
         let flat = illumination
             .walls
             .is_empty()
             .then(|| illumination.ambient(0, row0, t));
-        let update = |k: usize, value: &mut [f32], acc: &[f32], changed: &mut Vec<(u32, f32)>| {
-            let ambient = match flat {
-                Some(a) => a,
-                None => illumination.ambient((k % w) as u32, row0 + (k / w) as u32, t),
-            };
-            let new = ambient + acc[k];
+        let ambient = |k: usize| match flat {
+            Some(a) => a,
+            None => illumination.ambient((k % w) as u32, row0 + (k / w) as u32, t),
+        };
+        let (value, sensor) = (&mut self.value, &mut self.sensor);
+        let mut update = |k: usize, new: f32| {
             if new != value[k] {
                 value[k] = new;
-                changed.push(((offset + k) as u32, new));
+                sensor.set_input(k, new);
             }
         };
         if flicker {
-            for k in 0..self.value.len() {
-                update(k, &mut self.value, &self.acc, &mut self.changed);
+            for k in 0..self.acc.len() {
+                update(k, ambient(k) + self.acc[k]);
+            }
+            for &k in &self.touched {
+                self.acc[k as usize] = 0.0;
+                self.mark[k as usize] = false;
             }
         } else {
             // Pixels lit before but not now fall back to the ambient level.
             for &k in &self.lit {
                 if !self.mark[k as usize] {
-                    update(k as usize, &mut self.value, &self.acc, &mut self.changed);
+                    update(k as usize, ambient(k as usize));
                 }
             }
             for &k in &self.touched {
-                update(k as usize, &mut self.value, &self.acc, &mut self.changed);
+                let k = k as usize;
+                update(k, ambient(k) + self.acc[k]);
+                self.acc[k] = 0.0;
+                self.mark[k] = false;
             }
-        }
-        for &k in &self.touched {
-            self.acc[k as usize] = 0.0;
-            self.mark[k as usize] = false;
         }
         std::mem::swap(&mut self.lit, &mut self.touched);
         self.touched.clear();

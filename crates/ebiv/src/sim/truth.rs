@@ -35,6 +35,7 @@ pub fn velocity_field(
                 let i = field.index(ti, row, col);
                 field.u[i] = u as f32;
                 field.v[i] = v as f32;
+                field.status[i] = crate::field::Status::VALID;
             }
         }
     }

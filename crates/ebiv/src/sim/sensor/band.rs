@@ -3,7 +3,7 @@
 use std::ops::Range;
 
 use super::active::ActiveSet;
-use super::detector::{Pixel, StepContext};
+use super::detector::{Pending, Pixel, StepContext};
 use super::params::SensorParams;
 use super::response::{clean_irradiance, Curve, Response, MIN_THRESHOLD};
 use super::{PixelCounters, SimEvent};
@@ -50,12 +50,14 @@ pub struct SensorBand {
     pub(super) geometry: Geometry,
     pub(super) rows: Range<u32>,
     pixels: Vec<Pixel>,
-    /// Irradiance samples of the pixels marked changed in `active`.
-    pending: Vec<f32>,
+    /// New samples of the pixels marked changed in `active`.
+    pending: Vec<Pending>,
     /// Per active pixel, the time before which it need not be visited unless changed.
     wake: Vec<f64>,
     active: ActiveSet,
     t_now: f64,
+    /// The end of the step being prepared ([`SensorBand::begin_step`]).
+    t_next: f64,
     pub(super) response: Response,
     pub(super) seed: u64,
     pub(super) counters: PixelCounters,
@@ -117,10 +119,11 @@ impl SensorBand {
             geometry,
             rows,
             pixels,
-            pending: vec![0.0; n],
+            pending: vec![Pending::default(); n],
             wake: vec![f64::NEG_INFINITY; n],
             active: ActiveSet::new(n),
             t_now: 0.0,
+            t_next: 0.0,
             response,
             seed,
             counters: PixelCounters::default(),
@@ -183,6 +186,7 @@ impl SensorBand {
         }
         self.active.clear();
         self.t_now = t0;
+        self.t_next = t0;
     }
 
     /// Advance to `t_us` (µs; a time before the current one, or not finite, is taken as the
@@ -202,22 +206,45 @@ impl SensorBand {
     /// `t_us` (keep a margin of latency + refractory period + a few jitter σ when reading out
     /// a stream in pieces). Allocation-free apart from the growth of `out`.
     pub fn advance(&mut self, t_us: f64, changed: &[(u32, f32)], out: &mut Vec<SimEvent>) {
-        let ta = self.t_now;
-        let tb = if t_us.is_finite() && t_us > ta {
-            t_us
-        } else {
-            ta
-        };
+        self.begin_step(t_us);
         let first = self.rows.start as u64 * self.geometry.width as u64;
         let n = self.pixels.len() as u64;
         for &(index, irr) in changed {
             let local = (index as u64).wrapping_sub(first);
-            if local >= n {
-                continue;
+            if local < n {
+                self.set_input(local as usize, irr);
             }
-            self.pending[local as usize] = clean_irradiance(irr);
-            self.active.insert_changed(local as usize);
         }
+        self.advance_marked(out);
+    }
+
+    /// Start a step to `t_us` (same rules as [`SensorBand::advance`]); then give the new
+    /// samples with [`SensorBand::set_input`] and run the step with
+    /// [`SensorBand::advance_marked`].
+    pub fn begin_step(&mut self, t_us: f64) {
+        let ta = self.t_now;
+        self.t_next = if t_us.is_finite() && t_us > ta {
+            t_us
+        } else {
+            ta
+        };
+    }
+
+    /// Give local pixel `local` (`(y − first row)·width + x`, < [`SensorBand::pixel_count`])
+    /// the irradiance `irr` at the end of the step begun by [`SensorBand::begin_step`]; a
+    /// repeated pixel takes its last value. Calling this for a pixel whose irradiance did not
+    /// change is allowed but costs a full pixel update.
+    #[inline]
+    pub fn set_input(&mut self, local: usize, irr: f32) {
+        let px = &self.pixels[local];
+        self.pending[local] = Pending::new(&self.response, px, irr, self.t_now, self.t_next);
+        self.active.insert_changed(local);
+    }
+
+    /// Run the step begun by [`SensorBand::begin_step`] (see [`SensorBand::advance`]).
+    pub fn advance_marked(&mut self, out: &mut Vec<SimEvent>) {
+        let (ta, tb) = (self.t_now, self.t_next);
+        let first = self.rows.start as u64 * self.geometry.width as u64;
         let mut ctx = StepContext {
             response: &self.response,
             jitter_seed: sub_seed(self.seed, TAG_JITTER),
@@ -234,8 +261,8 @@ impl SensorBand {
                 return true;
             }
             updates += 1;
-            let new_irr = changed.then(|| pending[local]);
-            match ctx.step(&mut pixels[local], local as u32, ta, tb, new_irr) {
+            let new = changed.then(|| &pending[local]);
+            match ctx.step(&mut pixels[local], local as u32, ta, tb, new) {
                 Some(next) => {
                     wake[local] = next;
                     true

@@ -1,8 +1,9 @@
 //! The change detector of one pixel over one time step (sensor-model.md §2.1, §2.5): level
 //! crossings of the low-passed log intensity, refractory period, jitter and latency.
 
-use super::response::{Curve, Response};
+use super::response::{clean_irradiance, Curve, Response};
 use super::{PixelCounters, SimEvent};
+use crate::sim::fastmath;
 use crate::sim::rng::{Rng, Stream};
 
 /// Bit of [`Pixel::events`]: the pixel is blind (refractory) until `release`, then its
@@ -84,6 +85,50 @@ impl Pixel {
     }
 }
 
+/// A pixel's new input sample and the transcendental parts of its next update, computed
+/// when the sample is given ([`Pending::new`]) rather than in the update itself: the update
+/// of one pixel is a chain of dependent operations, and computing the logarithm and the
+/// exponentials of many pixels in one pass lets the processor overlap them.
+#[derive(Debug, Clone, Copy, Default)]
+pub(super) struct Pending {
+    /// The new irradiance.
+    irr: f32,
+    /// Its log response.
+    u: f64,
+    /// `e^(−ω·(tb − ta))` of the ramp from the old to the new sample over the step `[ta, tb]`
+    /// (ω at the mean irradiance), or NaN (compute it when needed).
+    ramp_decay: f64,
+    /// `e^(−ω·(ta − t))` of the constant-input stretch from the pixel's own time `t` to `ta`,
+    /// or NaN.
+    hold_decay: f64,
+}
+
+impl Pending {
+    /// The sample `irr` (cleaned) for `px`, to be applied over the step `[ta, tb]`.
+    #[inline]
+    pub(super) fn new(r: &Response, px: &Pixel, irr: f32, ta: f64, tb: f64) -> Self {
+        let irr = clean_irradiance(irr);
+        let u = if irr != px.irr { r.log(irr) } else { px.u };
+        let (mut ramp_decay, mut hold_decay) = (f64::NAN, f64::NAN);
+        if r.low_pass() {
+            // The same expressions as `segment` and `Curve::value` use, so the results are
+            // the ones they would compute.
+            let omega = r.omega(0.5 * (px.irr as f64 + irr as f64));
+            ramp_decay = fastmath::exp(-(omega * (tb - ta)));
+            if px.t < ta {
+                let omega = r.omega(0.5 * (px.irr as f64 + px.irr as f64));
+                hold_decay = fastmath::exp(-(omega * (ta - px.t)));
+            }
+        }
+        Pending {
+            irr,
+            u,
+            ramp_decay,
+            hold_decay,
+        }
+    }
+}
+
 /// Everything one step of one pixel needs besides the pixel.
 pub(super) struct StepContext<'a> {
     pub(super) response: &'a Response,
@@ -105,7 +150,8 @@ const TIE: f64 = 1e-9;
 
 impl StepContext<'_> {
     /// Advance one active pixel from its own time to `tb`; its input is constant up to `ta`
-    /// and, with `new_irr`, ramps to the new sample over `[ta, tb]`.
+    /// and, with `new`, ramps to the new sample over `[ta, tb]` (`new` was made by
+    /// [`Pending::new`] for this pixel and step).
     ///
     /// Returns `None` when the pixel leaves the active set (it cannot fire while its input is
     /// constant), else the time before which it need not be visited again unless its input
@@ -117,26 +163,34 @@ impl StepContext<'_> {
         local: u32,
         ta: f64,
         tb: f64,
-        new_irr: Option<f32>,
+        new: Option<&Pending>,
     ) -> Option<f64> {
         let r = self.response;
-        if new_irr.is_some() && px.t < ta {
-            // A pixel frozen or asleep since `px.t`: its constant-input stretch first.
-            self.segment(px, local, ta, None);
+        let new_irr = new.map(|p| p.irr);
+        if let Some(p) = new {
+            if px.t < ta {
+                // A pixel frozen or asleep since `px.t`: its constant-input stretch first.
+                self.segment(px, local, ta, None, p.hold_decay);
+            }
+            self.segment(px, local, tb, Some((p.irr, p.u)), p.ramp_decay);
+        } else {
+            self.segment(px, local, tb, None, f64::NAN);
         }
-        self.segment(px, local, tb, new_irr);
 
         if px.blind() {
             return Some(px.release);
         }
-        let omega = r.omega(px.irr as f64);
-        if !r.low_pass() || omega <= 0.0 {
+        if !r.low_pass() {
             return None;
         }
         let hi = px.l_ref + px.theta_on - TIE;
         let lo = px.l_ref - px.theta_off + TIE;
         let (l, u) = (px.l, px.u);
         if l < hi && l > lo && u < hi && u > lo {
+            return None;
+        }
+        let omega = r.omega(px.irr as f64);
+        if omega <= 0.0 {
             return None;
         }
         if new_irr.is_some() {
@@ -155,22 +209,29 @@ impl StepContext<'_> {
         }
     }
 
-    /// Advance the pixel from `px.t` to `tb`, its input constant or, with `new_irr`, ramping
-    /// linearly in log to the new sample; emit the events of the stretch.
+    /// Advance the pixel from `px.t` to `tb`, its input constant or, with `new = (irradiance,
+    /// log response)`, ramping linearly in log to the new sample; emit the events of the
+    /// stretch. `decay` is `e^(−ω·(tb − px.t))` if known (see [`Pending`]), else NaN.
     #[inline]
-    fn segment(&mut self, px: &mut Pixel, local: u32, tb: f64, new_irr: Option<f32>) {
+    fn segment(
+        &mut self,
+        px: &mut Pixel,
+        local: u32,
+        tb: f64,
+        new: Option<(f32, f64)>,
+        decay: f64,
+    ) {
         let r = self.response;
         let ta = px.t;
         let tb = tb.max(ta);
-        let irr_b = new_irr.unwrap_or(px.irr);
-        let ub = if irr_b != px.irr { r.log(irr_b) } else { px.u };
+        let (irr_b, ub) = new.unwrap_or((px.irr, px.u));
         let curve = if r.low_pass() {
             let omega = r.omega(0.5 * (px.irr as f64 + irr_b as f64));
             Curve::low_pass(ta, tb, px.l, px.u, ub, omega)
         } else {
             Curve::direct(ta, tb, px.u, ub)
         };
-        let lb = curve.value(curve.tb);
+        let lb = curve.end_value(decay);
 
         // Fast path: not blind, `L` inside both levels at the end and, if it may have an
         // extremum (which lies on the input line), the input inside them too.

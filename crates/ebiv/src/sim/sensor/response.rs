@@ -2,6 +2,7 @@
 //! and the exact solution of the low-pass over one time step (sensor-model.md §2.2, §2.4, §3).
 
 use super::params::SensorParams;
+use crate::sim::fastmath;
 
 /// The constants of the pixel model in simulation units (µs, ln intensity), sanitised so that
 /// no parameter value, valid or not, can make the arithmetic panic or loop.
@@ -14,6 +15,8 @@ pub(super) struct Response {
     omega_max: f64,
     reference: f64,
     dark: f64,
+    /// `1/(reference + dark)`.
+    inv_span: f64,
     pub theta_on: f64,
     pub theta_off: f64,
     pub sigma: f64,
@@ -52,13 +55,16 @@ impl Response {
             eps = 1e-3;
         }
         let cutoff = clean(p.cutoff_hz, 0.0, 1e12, 0.0);
+        let reference = clean(p.cutoff_reference_irradiance, 0.0, 1e30, 0.0);
+        let dark = clean(p.cutoff_dark_irradiance, 0.0, 1e30, 0.0);
         Response {
             knee,
-            ln_knee: if knee > 0.0 { knee.ln() } else { 0.0 },
+            ln_knee: if knee > 0.0 { fastmath::ln(knee) } else { 0.0 },
             eps,
             omega_max: std::f64::consts::TAU * cutoff * 1e-6,
-            reference: clean(p.cutoff_reference_irradiance, 0.0, 1e30, 0.0),
-            dark: clean(p.cutoff_dark_irradiance, 0.0, 1e30, 0.0),
+            reference,
+            dark,
+            inv_span: 1.0 / (reference + dark),
             theta_on: clean(p.threshold_on, MIN_THRESHOLD, 1e3, 0.2),
             theta_off: clean(p.threshold_off, MIN_THRESHOLD, 1e3, 0.2),
             sigma: clean(p.threshold_sigma, 0.0, 1e3, 0.0),
@@ -71,17 +77,18 @@ impl Response {
     /// The photoreceptor's log response to irradiance `i` (sensor-model.md §2.2): `ln i`
     /// above the knee and its tangent line below it (continuous with a continuous slope, unlike
     /// v2e's `x·ln(T)/T` segment, which is kinked and decreasing for T < 1), or `ln(ε + i)`.
+    /// The logarithm is [`fastmath::ln`], within about 1 ulp.
     #[inline]
     pub fn log(&self, i: f32) -> f64 {
         let i = i as f64;
         if self.knee > 0.0 {
             if i >= self.knee {
-                i.ln()
+                fastmath::ln(i)
             } else {
                 self.ln_knee + (i - self.knee) / self.knee
             }
         } else {
-            (i + self.eps).ln()
+            fastmath::ln(i + self.eps)
         }
     }
 
@@ -96,7 +103,9 @@ impl Response {
     #[inline]
     pub fn brightness(&self, i: f64) -> Option<f64> {
         if self.reference > 0.0 {
-            let b = (i + self.dark) / (self.reference + self.dark);
+            // A product with the stored reciprocal: within 1 ulp of the quotient, without a
+            // division on every pixel update.
+            let b = (i + self.dark) * self.inv_span;
             Some(if b < 1.0 { b } else { 1.0 })
         } else {
             None
@@ -124,9 +133,10 @@ impl Response {
 }
 
 /// `1 − e^(−x)`. `exp` rather than `exp_m1` (twice as fast): the absolute error stays at
-/// 1e-16, which is all `L` needs — it is a sum of such terms of order one.
+/// 1e-16 ([`fastmath::exp`]), which is all `L` needs — it is a sum of such terms of order one.
+#[inline]
 fn one_minus_exp(x: f64) -> f64 {
-    1.0 - (-x).exp()
+    1.0 - fastmath::exp(-x)
 }
 
 /// The low-passed log intensity `L(s)` of one pixel over one step `[ta, tb]`.
@@ -216,14 +226,31 @@ impl Curve {
         match self.kind {
             Kind::Linear { slope } => self.la + slope * ds,
             Kind::Relax { gap, m, omega } => {
-                let e1 = one_minus_exp(omega * ds);
-                let mut l = self.la + gap * e1;
-                if m != 0.0 {
-                    l += m * (ds - e1 / omega);
-                }
-                l
+                self.relaxed(gap, m, omega, ds, one_minus_exp(omega * ds))
             }
         }
+    }
+
+    /// `L(tb)`, given `decay = e^(−ω·(tb − ta))` when known (else NaN): the same value as
+    /// `value(tb)`, bit for bit.
+    #[inline]
+    pub fn end_value(&self, decay: f64) -> f64 {
+        match self.kind {
+            Kind::Relax { gap, m, omega } if !decay.is_nan() => {
+                self.relaxed(gap, m, omega, self.tb - self.ta, 1.0 - decay)
+            }
+            _ => self.value(self.tb),
+        }
+    }
+
+    /// The low-pass response `ds` after `ta`, with `e1 = 1 − e^(−ω·ds)`.
+    #[inline]
+    fn relaxed(&self, gap: f64, m: f64, omega: f64, ds: f64, e1: f64) -> f64 {
+        let mut l = self.la + gap * e1;
+        if m != 0.0 {
+            l += m * (ds - e1 / omega);
+        }
+        l
     }
 
     /// `L(s)`, `dL/ds` and `d²L/ds²` of the low-pass response from one exponential.
@@ -233,7 +260,7 @@ impl Curve {
         match self.kind {
             Kind::Linear { slope } => (self.la + slope * ds, slope, 0.0),
             Kind::Relax { gap, m, omega } => {
-                let e = (-omega * ds).exp();
+                let e = fastmath::exp(-omega * ds);
                 let e1 = 1.0 - e;
                 let value = self.la + gap * e1 + m * (ds - e1 / omega);
                 let slope = gap * omega * e + m * e1;

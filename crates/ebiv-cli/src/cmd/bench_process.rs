@@ -1,0 +1,105 @@
+//! `ebiv bench process`: how long both estimators take per second of a recording at the
+//! EBIV paper's data rate and settings (Willert & Klinner 2022: 1280 × 720 px, ≈ 20 M
+//! events/s, 40 × 40 px windows on a 20 px step, T = 10 ms, 100 fields per second).
+
+use super::process_run::describe_passes;
+use clap::Args;
+use ebiv::estimate::corrsum::{CorrSumParams, SumOfCorrelation};
+use ebiv::estimate::motion::{ContrastMaximization, MotionParams};
+use ebiv::estimate::Estimator;
+use ebiv::grid::GridSpec;
+use ebiv::process::{process_recording, MemorySource, ProcessParams, TimeSteps};
+use ebiv::EventBuffer;
+use std::time::Instant;
+
+#[derive(Debug, Args)]
+pub struct ProcessBenchArgs {
+    /// Simulated recording length (fields every 10 ms over it).
+    #[arg(long, default_value = "200ms", value_parser = ebiv::units::parse_us)]
+    pub duration: i64,
+    /// Seeding density of the `paper-rate` scene in particles per pixel (0.0014 gives
+    /// about 20 M events/s).
+    #[arg(long, default_value_t = 0.0014)]
+    pub density: f64,
+    /// Window size and grid step in px.
+    #[arg(long, default_value_t = 40)]
+    pub window: u32,
+    #[arg(long, default_value_t = 20)]
+    pub step: u32,
+    /// Only this method: corrsum or motion (default both).
+    #[arg(long)]
+    pub method: Option<String>,
+}
+
+pub fn run(args: &ProcessBenchArgs) -> Result<(), ebiv::Error> {
+    let text = ebiv::sim::scenario::Scenario::example("paper-rate").expect("built-in example");
+    let mut scenario = super::simulate::parse_scenario(text, "paper-rate")?;
+    scenario.duration = args.duration;
+    scenario.particles.density = args.density;
+    let sim = scenario.simulation()?;
+    let started = Instant::now();
+    let events = sim.run(None, &|_| {})?.events;
+    let seconds_of_recording = args.duration as f64 * 1e-6;
+    println!(
+        "simulated {} events on {} in {:.1} s: {:.1} M events/s of recording, {} ms",
+        events.len(),
+        sim.geometry,
+        started.elapsed().as_secs_f64(),
+        events.len() as f64 / seconds_of_recording * 1e-6,
+        args.duration / 1000
+    );
+    let params = ProcessParams {
+        passes: vec![GridSpec::square(args.window, args.step)],
+        ..ProcessParams::default()
+    };
+    let which = args.method.as_deref();
+    if which.is_none_or(|m| m == "corrsum") {
+        let e = SumOfCorrelation::new(CorrSumParams::default())?;
+        time_method(&e, &events, &sim, &params, seconds_of_recording)?;
+    }
+    if which.is_none_or(|m| m == "motion") {
+        let e = ContrastMaximization::new(MotionParams::default())?;
+        time_method(&e, &events, &sim, &params, seconds_of_recording)?;
+    }
+    Ok(())
+}
+
+/// Process every 10 ms field that fits and print the time per second of recording.
+fn time_method<E: Estimator>(
+    estimator: &E,
+    events: &EventBuffer,
+    sim: &ebiv::sim::simulation::Simulation,
+    params: &ProcessParams,
+    seconds_of_recording: f64,
+) -> Result<(), ebiv::Error> {
+    let (before, after) = estimator.time_extent_us();
+    let last = events.t.last().copied().unwrap_or(0);
+    let times = TimeSteps::fitting(0, last, before, after, 10_000)
+        .ok_or_else(|| ebiv::Error::parameter("duration", "too short for one field"))?
+        .times(100_000)?;
+    let started = Instant::now();
+    let mut source = MemorySource::new(events);
+    let (series, summary) = process_recording(
+        &mut source,
+        sim.geometry,
+        estimator,
+        params,
+        &times,
+        &mut |_| {},
+    )?;
+    let seconds = started.elapsed().as_secs_f64();
+    let per_recording_second = seconds / (times.len() as f64 / 100.0);
+    println!(
+        "{:8} {}: {} fields × {} windows in {seconds:.2} s = {:.0} windows/s; {:.2} s per second of recording at 100 fields/s ({:.1} % valid) on {} threads",
+        estimator.name(),
+        describe_passes(params),
+        summary.fields,
+        series.field_len(),
+        summary.vectors as f64 / seconds,
+        per_recording_second,
+        100.0 * summary.valid as f64 / summary.vectors.max(1) as f64,
+        rayon::current_num_threads()
+    );
+    let _ = seconds_of_recording;
+    Ok(())
+}

@@ -1,0 +1,357 @@
+//! Running `ebiv process`: resolve the settings, stream the recording through the chosen
+//! estimator, write the field series and the figures, print the summary.
+
+use super::process_config::ProcessConfig;
+use crate::progress::count_bar;
+use ebiv::estimate::corrsum::{CorrSumParams, SumOfCorrelation};
+use ebiv::estimate::motion::{ContrastMaximization, MotionParams};
+use ebiv::estimate::peak::SubPixelFit;
+use ebiv::estimate::Estimator;
+use ebiv::field::{Calibration, FieldSeries};
+use ebiv::filter::Roi;
+use ebiv::grid::GridSpec;
+use ebiv::io::ReadOptions;
+use ebiv::process::{process_recording, scan_extent, FieldDone, ProcessParams, TimeSteps};
+use ebiv::render::{
+    save_png, time_coded_image, vector_map, velocity_histograms, write_gif, HistogramStyle,
+    VectorMapStyle,
+};
+use ebiv::{Error, Geometry, PolaritySelection};
+use std::path::PathBuf;
+use std::time::Instant;
+
+/// At most this many frames go into the animation.
+const MAX_GIF_FRAMES: usize = 200;
+
+/// The two estimators.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Method {
+    CorrSum,
+    Motion,
+}
+
+/// Every setting of a run, resolved and checked.
+#[derive(Debug, Clone)]
+pub struct Settings {
+    pub input: PathBuf,
+    pub method: Method,
+    pub corrsum: CorrSumParams,
+    pub motion: MotionParams,
+    pub params: ProcessParams,
+    /// START, END (relative to the first event unless `absolute_time`) and STEP, µs.
+    pub time: (Option<i64>, Option<i64>, Option<i64>),
+    pub absolute_time: bool,
+    pub output: PathBuf,
+    pub png: Option<PathBuf>,
+    pub calibration: Option<Calibration>,
+}
+
+impl Settings {
+    /// Resolve a merged configuration into settings, with defaults and checks.
+    pub fn from_config(c: &ProcessConfig) -> Result<Settings, Error> {
+        let input = c.input.clone().ok_or_else(|| {
+            Error::parameter(
+                "input",
+                "no recording given (ebiv process FILE, or `input` in the config)",
+            )
+        })?;
+        let method = match c.method.as_deref().unwrap_or("corrsum") {
+            "corrsum" | "sum-of-correlation" | "correlation" => Method::CorrSum,
+            "motion" | "motion-compensation" | "cmax" => Method::Motion,
+            other => {
+                return Err(Error::parameter(
+                    "method",
+                    format!("`{other}` is not corrsum or motion"),
+                ))
+            }
+        };
+        let windows = c
+            .window
+            .as_ref()
+            .map(|w| w.values())
+            .unwrap_or(vec![64, 40]);
+        let steps = match &c.step {
+            Some(s) => s.values(),
+            None => windows.iter().map(|w| (w / 2).max(1)).collect(),
+        };
+        if steps.len() != windows.len() {
+            return Err(Error::parameter(
+                "step",
+                format!(
+                    "{} steps for {} windows: give one step per pass",
+                    steps.len(),
+                    windows.len()
+                ),
+            ));
+        }
+        let roi = c.roi.as_deref().map(Roi::parse).transpose()?;
+        let passes = windows
+            .iter()
+            .zip(&steps)
+            .map(|(&w, &s)| GridSpec {
+                window: [w, w],
+                step: [s, s],
+                roi,
+            })
+            .collect();
+        let polarity = match c.polarity.as_deref() {
+            None => PolaritySelection::Positive,
+            Some(p) => PolaritySelection::parse(p).ok_or_else(|| {
+                Error::parameter("polarity", format!("`{p}` is not pos, neg or both"))
+            })?,
+        };
+        let fit = match c.fit.as_deref() {
+            None => None,
+            Some(f) => Some(SubPixelFit::parse(f).ok_or_else(|| {
+                Error::parameter("fit", format!("`{f}` is not gauss3, parabolic or gauss2d"))
+            })?),
+        };
+        let mut corrsum = c.corrsum.unwrap_or_default();
+        let mut motion = c.motion.clone().unwrap_or_default();
+        if let Some(slab) = c.slab {
+            corrsum.slab_us = slab.0;
+            motion.slab_us = slab.0;
+        }
+        if let Some(tau) = c.tau {
+            corrsum.tau_us = tau.0;
+        }
+        if let Some(n) = c.slices {
+            corrsum.slices = n;
+        }
+        if let Some(fit) = fit {
+            corrsum.fit = fit;
+            motion.fit = fit;
+        }
+        if c.search_range.is_some() {
+            motion.search_range = c.search_range;
+        }
+        corrsum.validate()?;
+        motion.validate()?;
+        let validation = c.validation.clone().unwrap_or_default();
+        validation.check()?;
+        let time = match &c.time {
+            Some(t) => {
+                let (s, e, step) = TimeSteps::parse(t)?;
+                (s, e, Some(step))
+            }
+            None => (None, None, None),
+        };
+        let calibration = match c.mm_per_px {
+            Some(mm_per_px) => {
+                let cal = Calibration {
+                    mm_per_px,
+                    origin_px: c.origin.unwrap_or([0.0, 0.0]),
+                    y_up: c.y_up.unwrap_or(false),
+                };
+                cal.validate()?;
+                Some(cal)
+            }
+            None if c.origin.is_some() || c.y_up == Some(true) => {
+                return Err(Error::parameter(
+                    "mm-per-px",
+                    "origin and y-up need a calibration scale (--mm-per-px)",
+                ))
+            }
+            None => None,
+        };
+        Ok(Settings {
+            input,
+            method,
+            corrsum,
+            motion,
+            params: ProcessParams {
+                passes,
+                polarity,
+                validation,
+                replace_final: c.replace.unwrap_or(false),
+                ..ProcessParams::default()
+            },
+            time,
+            absolute_time: c.absolute_time.unwrap_or(false),
+            output: c.output.clone().unwrap_or_else(|| PathBuf::from("flow.nc")),
+            png: c.png.clone(),
+            calibration,
+        })
+    }
+
+    /// Slab length T, µs.
+    fn slab_us(&self) -> i64 {
+        match self.method {
+            Method::CorrSum => self.corrsum.slab_us,
+            Method::Motion => self.motion.slab_us,
+        }
+    }
+}
+
+/// Run the settings on their recording.
+pub fn run_config(s: &Settings, options: &ReadOptions) -> Result<(), Error> {
+    match s.method {
+        Method::CorrSum => execute(s, options, &SumOfCorrelation::new(s.corrsum)?),
+        Method::Motion => execute(s, options, &ContrastMaximization::new(s.motion.clone())?),
+    }
+}
+
+fn execute<E: Estimator>(s: &Settings, options: &ReadOptions, estimator: &E) -> Result<(), Error> {
+    let (before, after) = estimator.time_extent_us();
+    let mut reader = ebiv::io::open(&s.input, options)?;
+    let mut geometry = reader.metadata().geometry;
+    let needs_scan =
+        geometry.is_none() || !s.absolute_time || s.time.0.is_none() || s.time.1.is_none();
+    let extent = if needs_scan {
+        let mut scan = ebiv::io::open(&s.input, options)?;
+        scan_extent(&mut scan)?.ok_or_else(|| {
+            Error::parameter("input", format!("{} holds no events", s.input.display()))
+        })?
+    } else {
+        ebiv::process::RecordingExtent {
+            first_us: 0,
+            last_us: 0,
+            max_x: 0,
+            max_y: 0,
+            events: 0,
+        }
+    };
+    let g = *geometry.get_or_insert(Geometry::new(
+        extent.max_x as u32 + 1,
+        extent.max_y as u32 + 1,
+    ));
+    let origin = if s.absolute_time { 0 } else { extent.first_us };
+    let step = s.time.2.unwrap_or(s.slab_us());
+    let fitting = TimeSteps::fitting(extent.first_us, extent.last_us, before, after, step);
+    let start = s.time.0.map(|t| origin + t);
+    let end = s.time.1.map(|t| origin + t);
+    let steps = match (start, end, fitting) {
+        (Some(a), Some(b), _) => TimeSteps { start: a, end: b, step },
+        (a, b, Some(f)) => TimeSteps {
+            start: a.unwrap_or(f.start),
+            end: b.unwrap_or(f.end),
+            step,
+        },
+        _ => {
+            return Err(Error::parameter(
+                "time",
+                format!(
+                    "the recording ({} ms) is shorter than one field needs ({} ms); use a shorter --slab",
+                    (extent.last_us - extent.first_us) / 1000,
+                    (before + after) / 1000
+                ),
+            ))
+        }
+    };
+    let times = steps.times(1_000_000)?;
+    println!(
+        "{}: {} field(s) from {} to {} µs, {} on {g}, passes {}",
+        s.input.display(),
+        times.len(),
+        times[0],
+        times[times.len() - 1],
+        estimator.name(),
+        describe_passes(&s.params)
+    );
+    if let Some(dir) = &s.png {
+        std::fs::create_dir_all(dir).map_err(|e| Error::io(dir, e))?;
+    }
+    let bar = count_bar(times.len() as u64, "fields");
+    let started = Instant::now();
+    let mut frames = Vec::new();
+    let mut figure_error = None;
+    let mut on_field = |d: &FieldDone| {
+        bar.set_position(d.done as u64);
+        if let (Some(dir), None) = (&s.png, &figure_error) {
+            let frame = field_figure(d, g, s, estimator.time_extent_us());
+            let path = dir.join(format!("field_{:04}.png", d.done - 1));
+            if let Err(e) = save_png(&frame, &path) {
+                figure_error = Some(e);
+            } else if frames.len() < MAX_GIF_FRAMES {
+                frames.push(frame);
+            }
+        }
+    };
+    let (mut series, summary) =
+        process_recording(&mut reader, g, estimator, &s.params, &times, &mut on_field)?;
+    bar.finish_and_clear();
+    if let Some(e) = figure_error {
+        return Err(e);
+    }
+    let seconds = started.elapsed().as_secs_f64();
+    super::print_report_summary(&reader.report());
+    series.calibration = s.calibration;
+    series
+        .attributes
+        .push(("source".into(), s.input.display().to_string()));
+    ebiv::export::write_field(&series, &s.output)?;
+    println!(
+        "{} vectors in {} field(s), {:.1} % valid ({} flagged by validation), in {:.2} s ({:.1} M events/s read, {:.0} vectors/s)",
+        summary.vectors,
+        summary.fields,
+        100.0 * summary.valid as f64 / summary.vectors.max(1) as f64,
+        summary.flagged,
+        seconds,
+        summary.events_read as f64 / seconds / 1e6,
+        summary.vectors as f64 / seconds
+    );
+    println!("wrote {}", s.output.display());
+    if let Some(dir) = &s.png {
+        write_series_figures(&series, dir, s, frames)?;
+    }
+    Ok(())
+}
+
+/// "64×64/32 → 40×40/20".
+pub fn describe_passes(p: &ProcessParams) -> String {
+    p.passes
+        .iter()
+        .map(|g| format!("{}x{} px step {}", g.window[0], g.window[1], g.step[0]))
+        .collect::<Vec<_>>()
+        .join(" -> ")
+}
+
+/// The vector map of one field over the time-coded image of its slab.
+fn field_figure(d: &FieldDone, g: Geometry, s: &Settings, extent: (i64, i64)) -> image::RgbImage {
+    let half = extent.0.min(extent.1).max(1);
+    let events = time_coded_image(d.events, g, d.t0_us, half, s.params.polarity);
+    let style = VectorMapStyle {
+        title: Some(format!(
+            "{} t = {:.2} ms",
+            s.input.file_name().unwrap_or_default().to_string_lossy(),
+            d.t0_us as f64 / 1000.0
+        )),
+        ..VectorMapStyle::default()
+    };
+    vector_map(d.field, g, Some(&events.image), &style)
+}
+
+/// Histograms of u and v and the animation, after the run.
+fn write_series_figures(
+    series: &FieldSeries,
+    dir: &std::path::Path,
+    s: &Settings,
+    frames: Vec<image::RgbImage>,
+) -> Result<(), Error> {
+    let tau_ms = match s.method {
+        Method::CorrSum => Some(s.corrsum.tau_us as f64 / 1000.0),
+        Method::Motion => None,
+    };
+    let valid: Vec<usize> = (0..series.u.len())
+        .filter(|&i| series.status[i].is_valid())
+        .collect();
+    let u: Vec<f32> = valid.iter().map(|&i| series.u[i]).collect();
+    let v: Vec<f32> = valid.iter().map(|&i| series.v[i]).collect();
+    let hist = velocity_histograms(
+        &u,
+        &v,
+        &HistogramStyle {
+            displacement_ms: tau_ms,
+            title: Some(format!("{} valid vectors", u.len())),
+            ..HistogramStyle::default()
+        },
+    );
+    save_png(&hist, &dir.join("histograms.png"))?;
+    let mut written = format!("histograms.png and {} vector map(s)", series.t_us.len());
+    if frames.len() > 1 {
+        write_gif(&frames, 200, &dir.join("animation.gif"))?;
+        written.push_str(", animation.gif");
+    }
+    println!("figures in {}: {written}", dir.display());
+    Ok(())
+}

@@ -1,0 +1,460 @@
+//! Sum of correlation: an ensemble cross-correlation over time slices of the events of one
+//! window (Willert & Klinner, Exp. Fluids 63:101, 2022, "sum of correlation" estimator;
+//! `docs/algorithms.md` §5).
+//!
+//! Two sub-volumes of the window, `S1 = [t0 − T/2 − τ/2, t0 + T/2 − τ/2)` and
+//! `S2 = [t0 − T/2 + τ/2, t0 + T/2 + τ/2)` around the field's centre time `t0`, are cut into
+//! `N_T` slices of `T/N_T`; slice `z` of S2 is exactly τ later than slice `z` of S1, so its
+//! particle images are displaced by `v·τ`. The occupancy images of each slice pair are
+//! cross-correlated and the planes summed over slices (the event analogue of ensemble
+//! correlation, Meinhart, Wereley & Santiago 2000, J. Fluids Eng. 122:285); the peak gives the
+//! displacement `Δ` and `v = Δ/τ`.
+//!
+//! Unlike the reference code (algorithms.md §5.3) the correlation here is the zero-padded
+//! *linear* correlation normalised by the overlap area of every lag (Raffel et al., "Particle
+//! Image Velocimetry", 3rd ed., 2018, §5.3: no bias toward zero displacement), each slice is
+//! normalised by its own standard deviations so the summed plane, averaged over the slices
+//! with data, reads as a correlation coefficient; empty windows are NaN with a status, a
+//! predictor gives a symmetric discrete window offset (Westerweel, Dabiri & Gharib 1997,
+//! Exp. Fluids 23:20), and the peak ratio is reported. Two kernels compute the same plane: a
+//! direct sum over voxel pairs (fast for the sparse windows typical of EBIV) and an FFT path
+//! that sums the slices' cross-spectra and transforms back once.
+
+mod direct;
+mod fit;
+mod fourier;
+mod voxels;
+
+use serde::{Deserialize, Serialize};
+
+use super::peak::{find_peak, SubPixelFit};
+use super::{gather_predicted, Estimator, Prediction, WindowEstimate};
+use crate::error::{Error, Result};
+use crate::field::Status;
+use crate::grid::Window;
+use crate::volume::{Slab, WindowEvents};
+use fit::refine_tilted;
+use fourier::Fourier;
+use voxels::{slice_statistics, PlaneShape, SliceStats, Voxeliser, Voxels};
+
+/// How the correlation plane is computed; all kernels give the same plane.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum CorrKernel {
+    /// Direct accumulation for sparse windows, FFT for dense ones, chosen per window from the
+    /// number of voxel pairs.
+    #[default]
+    Auto,
+    /// Zero-padded FFT: cross-spectra of all slices summed, one inverse transform.
+    Fft,
+    /// Sum over the voxel pairs of each slice with a lag inside the search radius.
+    Direct,
+}
+
+/// Value of a voxel (pixel × time slice) in the occupancy images.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum Weighting {
+    /// 1 if the voxel holds any event (the paper's binary occupancy).
+    #[default]
+    Binary,
+    /// The number of events in the voxel.
+    Count,
+}
+
+/// Parameters of [`SumOfCorrelation`]. Defaults are the reference implementation's
+/// (`ebiv_params.cfg`: T = 10 ms, τ = 3 ms, 20 slices).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct CorrSumParams {
+    /// Length T of each sub-volume, µs.
+    pub slab_us: i64,
+    /// Delay τ between the two sub-volumes, µs.
+    pub tau_us: i64,
+    /// Number N_T of time slices per sub-volume.
+    pub slices: u32,
+    /// Correlation kernel.
+    pub kernel: CorrKernel,
+    /// Sub-pixel peak estimator. Default: the 2-D Gaussian, because the summed peak is
+    /// elongated along the motion (a pixel stays active over several slices while a particle
+    /// image crosses it), and axis-wise 3-point fits of a tilted elongated peak are biased
+    /// (up to 0.3 px for oblique motion in the tests).
+    pub fit: SubPixelFit,
+    /// Voxel value: binary occupancy or event count.
+    pub weighting: Weighting,
+    /// Minimum mean number of events per sub-volume, `(n1 + n2)/2`; fewer gives
+    /// [`Status::FEW_EVENTS`].
+    pub min_events: u32,
+    /// Largest displacement searched from the window offset, px per axis; `None`: a third of
+    /// the window (clamped to 1 … window size − 1), the search limit PIVlab applies on its
+    /// refinement passes. Beyond it the overlap normalisation amplifies "ghost" peaks of
+    /// unrelated particle pairs (up to 4× at the corners of a half-window search) and the
+    /// ¼-rule of PIV says the true peak is weak anyway; a larger displacement is better met
+    /// with a first pass on larger windows. A peak on the border of the search region is
+    /// flagged [`Status::OUT_OF_RANGE`].
+    pub search_radius_px: Option<u32>,
+}
+
+impl Default for CorrSumParams {
+    fn default() -> Self {
+        CorrSumParams {
+            slab_us: 10_000,
+            tau_us: 3_000,
+            slices: 20,
+            kernel: CorrKernel::Auto,
+            fit: SubPixelFit::Gaussian2d,
+            weighting: Weighting::Binary,
+            min_events: 10,
+            search_radius_px: None,
+        }
+    }
+}
+
+/// Longest sub-volume: local event times are `f32` µs, exact up to 2²⁴ µs.
+const MAX_SLAB_US: i64 = 16_000_000;
+/// Most slices per sub-volume.
+const MAX_SLICES: u32 = 100_000;
+
+impl CorrSumParams {
+    /// Reject parameters that cannot give a meaningful correlation.
+    pub fn validate(&self) -> Result<()> {
+        let (t, tau, n) = (self.slab_us, self.tau_us, self.slices);
+        if t <= 0 || t > MAX_SLAB_US {
+            return Err(Error::parameter(
+                "slab_us",
+                format!("must be between 1 µs and {MAX_SLAB_US} µs, got {t} µs"),
+            ));
+        }
+        if n == 0 || n > MAX_SLICES {
+            return Err(Error::parameter(
+                "slices",
+                format!("must be between 1 and {MAX_SLICES}, got {n}"),
+            ));
+        }
+        if t < n as i64 {
+            return Err(Error::parameter(
+                "slices",
+                format!("{n} slices of a {t} µs slab are shorter than 1 µs; use fewer slices"),
+            ));
+        }
+        if tau <= 0 {
+            return Err(Error::parameter(
+                "tau_us",
+                format!("the delay must be positive, got {tau} µs"),
+            ));
+        }
+        if tau > t {
+            return Err(Error::parameter(
+                "tau_us",
+                format!(
+                    "the delay ({tau} µs) must not exceed the slab ({t} µs); the paper uses τ = 3 ms with T = 10 ms"
+                ),
+            ));
+        }
+        if tau * (n as i64) < t {
+            return Err(Error::parameter(
+                "tau_us",
+                format!(
+                    "the delay ({tau} µs) is shorter than one slice ({} µs): paired slices would share events and correlate with themselves; use a longer delay or fewer slices",
+                    t as f64 / n as f64
+                ),
+            ));
+        }
+        if self.search_radius_px == Some(0) {
+            return Err(Error::parameter(
+                "search_radius_px",
+                "must be at least 1 px",
+            ));
+        }
+        Ok(())
+    }
+}
+
+/// Exclusion half-width around the first peak when searching the second, px (OpenPIV's 2).
+const EXCLUSION_PX: usize = 2;
+
+/// The sum-of-correlation estimator (Willert & Klinner 2022), see the module documentation.
+#[derive(Debug, Clone, PartialEq)]
+pub struct SumOfCorrelation {
+    params: CorrSumParams,
+}
+
+impl SumOfCorrelation {
+    /// An estimator with validated parameters.
+    pub fn new(params: CorrSumParams) -> Result<Self> {
+        params.validate()?;
+        Ok(SumOfCorrelation { params })
+    }
+
+    /// The parameters.
+    pub fn params(&self) -> &CorrSumParams {
+        &self.params
+    }
+
+    /// Search radius per axis for a window of `[width, height]` px.
+    fn radius(&self, window: [u32; 2]) -> [usize; 2] {
+        window.map(|w| {
+            let limit = (w as usize).saturating_sub(1).max(1);
+            let r = self
+                .params
+                .search_radius_px
+                .map_or(w as usize / 3, |r| r as usize);
+            r.clamp(1, limit)
+        })
+    }
+
+    /// Half the time extent, `⌈(T + τ)/2⌉` µs.
+    fn half_extent_us(&self) -> i64 {
+        (self.params.slab_us + self.params.tau_us + 1) / 2
+    }
+
+    /// Compute the normalised, summed correlation plane of `window`'s events around `t0_us`
+    /// with the integer window offset `[s1, s2]` per axis (S1 window moved by `−s1`, S2 by
+    /// `+s2`) into `scratch.plane`, and return its status before peak search.
+    fn correlation_plane(
+        &self,
+        slab: &Slab,
+        window: &Window,
+        t0_us: i64,
+        offsets: [[i64; 2]; 2],
+        predictor: Option<&Prediction>,
+        scratch: &mut CorrSumScratch,
+    ) -> std::result::Result<u32, WindowEstimate> {
+        let p = &self.params;
+        let s1_start = t0_us - self.half_extent_us();
+        let s2_start = s1_start + p.tau_us;
+        let windows = [
+            (window.shifted(-offsets[0][0], -offsets[0][1]), s1_start),
+            (window.shifted(offsets[1][0], offsets[1][1]), s2_start),
+        ];
+        let count = p.weighting == Weighting::Count;
+        for (k, (w, start)) in windows.iter().enumerate() {
+            scratch.events.clear();
+            let times = (*start, start + p.slab_us, *start);
+            gather_predicted(slab, w, times, predictor, &mut scratch.events);
+            let out = if k == 0 {
+                &mut scratch.a
+            } else {
+                &mut scratch.b
+            };
+            scratch
+                .voxeliser
+                .run(&scratch.events, p.slab_us, p.slices, count, out);
+        }
+        let (n1, n2) = (scratch.a.events, scratch.b.events);
+        let events = u32::try_from((n1 + n2) / 2).unwrap_or(u32::MAX);
+        if n1 == 0 || n2 == 0 {
+            return Err(WindowEstimate::invalid(Status::NO_EVENTS, events));
+        }
+        if events < p.min_events {
+            return Err(WindowEstimate::invalid(Status::FEW_EVENTS, events));
+        }
+        let shape = scratch.shape;
+        slice_statistics(&scratch.a, &scratch.b, shape, &mut scratch.stats);
+        if scratch.stats.is_empty() {
+            return Err(WindowEstimate::invalid(Status::NO_PEAK, events));
+        }
+        let use_fft = match p.kernel {
+            CorrKernel::Fft => true,
+            CorrKernel::Direct => false,
+            CorrKernel::Auto => {
+                let pairs: usize = scratch
+                    .stats
+                    .iter()
+                    .map(|s| scratch.a.len(s.z) * scratch.b.len(s.z))
+                    .sum();
+                direct_is_slower(pairs, scratch.stats.len(), shape)
+            }
+        };
+        if use_fft {
+            let fourier = scratch.fourier.get_or_insert_with(|| Fourier::new(shape));
+            fourier.correlate(&scratch.a, &scratch.b, &scratch.stats, &mut scratch.plane);
+        } else {
+            direct::correlate(
+                &scratch.a,
+                &scratch.b,
+                &scratch.stats,
+                shape,
+                &mut scratch.plane,
+                &mut scratch.diff,
+            );
+        }
+        Ok(events)
+    }
+}
+
+/// Auto kernel choice: direct costs about `PAIR_NS` per voxel pair, the FFT path about
+/// `FFT_NS_PER_BIN` per padded half-spectrum bin and slice (relative costs measured with the
+/// `timing` test of `tests/corrsum.rs`: for 40 px windows the FFT wins above roughly 2500
+/// events per sub-volume, about 110 voxels per slice).
+fn direct_is_slower(pairs: usize, valid_slices: usize, shape: PlaneShape) -> bool {
+    const PAIR_NS: f64 = 1.0;
+    const FFT_NS_PER_BIN: f64 = 10.0;
+    let [nx, ny] = Fourier::size(shape);
+    let bins = (nx / 2 + 1) * ny;
+    pairs as f64 * PAIR_NS > valid_slices as f64 * bins as f64 * FFT_NS_PER_BIN
+}
+
+/// Symmetric discrete window offset for a predicted displacement `d` px: S1 is gathered from
+/// the window moved by `−s1`, S2 by `+s2`, `s1 = round(d/2)`, `s2 = round(d − s1)`, so the
+/// residual `d − s1 − s2` is at most half a pixel.
+fn window_offsets(predicted_px: [f64; 2]) -> [[i64; 2]; 2] {
+    let mut s = [[0i64; 2]; 2];
+    for axis in 0..2 {
+        let d = predicted_px[axis];
+        if !d.is_finite() {
+            continue;
+        }
+        let d = d.clamp(-1e6, 1e6);
+        let s1 = (d / 2.0).round();
+        s[0][axis] = s1 as i64;
+        s[1][axis] = (d - s1).round() as i64;
+    }
+    s
+}
+
+impl Estimator for SumOfCorrelation {
+    type Scratch = CorrSumScratch;
+
+    fn name(&self) -> &'static str {
+        "corrsum"
+    }
+
+    fn scratch(&self, window: [u32; 2]) -> CorrSumScratch {
+        CorrSumScratch::new(window, self.radius(window), self.params.slices)
+    }
+
+    fn time_extent_us(&self) -> (i64, i64) {
+        let e = self.half_extent_us();
+        (e, e)
+    }
+
+    fn estimate(
+        &self,
+        slab: &Slab,
+        window: &Window,
+        t0_us: i64,
+        predictor: Option<&Prediction>,
+        scratch: &mut CorrSumScratch,
+    ) -> WindowEstimate {
+        let size = [window.width, window.height];
+        if scratch.window != size || scratch.slices != self.params.slices {
+            *scratch = self.scratch(size);
+        }
+        let tau_ms = self.params.tau_us as f64 / 1000.0;
+        let predictor = predictor.filter(|p| p.velocity.iter().all(|v| v.is_finite()));
+        let offsets = predictor.map_or([[0; 2]; 2], |p| {
+            window_offsets(p.velocity.map(|v| v * tau_ms))
+        });
+        let plane = self.correlation_plane(slab, window, t0_us, offsets, predictor, scratch);
+        let events = match plane {
+            Ok(n) => n,
+            Err(invalid) => return invalid,
+        };
+        let shape = scratch.shape;
+        let (pw, ph) = (shape.plane_width(), shape.plane_height());
+        let Some(peak) = find_peak(&scratch.plane, pw, ph, self.params.fit, EXCLUSION_PX) else {
+            return WindowEstimate::invalid(Status::NO_PEAK, events);
+        };
+        let mut result = WindowEstimate::invalid(Status::NO_PEAK, events);
+        result.peak = peak.value as f32;
+        result.peak_ratio = peak.ratio() as f32;
+        if peak.value.is_nan() || peak.value <= 0.0 {
+            return result;
+        }
+        if peak.on_edge {
+            result.status = Status::OUT_OF_RANGE;
+            return result;
+        }
+        let [px, py] = refine_tilted(&scratch.plane, pw, &peak, self.params.fit);
+        let dx = (offsets[0][0] + offsets[1][0]) as f64 + px - shape.rx as f64;
+        let dy = (offsets[0][1] + offsets[1][1]) as f64 + py - shape.ry as f64;
+        result.u = dx / tau_ms;
+        result.v = dy / tau_ms;
+        result.status = Status::VALID;
+        result
+    }
+
+    fn parameters(&self) -> Vec<(String, String)> {
+        let p = &self.params;
+        let kernel = match p.kernel {
+            CorrKernel::Auto => "auto",
+            CorrKernel::Fft => "fft",
+            CorrKernel::Direct => "direct",
+        };
+        let fit = match p.fit {
+            SubPixelFit::Gaussian3 => "gauss3",
+            SubPixelFit::Parabolic3 => "parabolic",
+            SubPixelFit::Gaussian2d => "gauss2d",
+        };
+        let weighting = match p.weighting {
+            Weighting::Binary => "binary",
+            Weighting::Count => "count",
+        };
+        let radius = p
+            .search_radius_px
+            .map_or("a third of the window".to_string(), |r| format!("{r} px"));
+        vec![
+            ("slab".into(), format!("{} us", p.slab_us)),
+            ("tau".into(), format!("{} us", p.tau_us)),
+            ("slices".into(), p.slices.to_string()),
+            ("kernel".into(), kernel.into()),
+            ("subpixel_fit".into(), fit.into()),
+            ("weighting".into(), weighting.into()),
+            ("min_events".into(), p.min_events.to_string()),
+            ("search_radius".into(), radius),
+        ]
+    }
+}
+
+/// Per-thread working memory of [`SumOfCorrelation`] for one window size: gathered events,
+/// voxel lists, the correlation plane and (built on first use) the FFT plans and buffers.
+pub struct CorrSumScratch {
+    window: [u32; 2],
+    slices: u32,
+    shape: PlaneShape,
+    events: WindowEvents,
+    voxeliser: Voxeliser,
+    a: Voxels,
+    b: Voxels,
+    stats: Vec<SliceStats>,
+    plane: Vec<f64>,
+    diff: Vec<f64>,
+    fourier: Option<Fourier>,
+}
+
+impl CorrSumScratch {
+    fn new(window: [u32; 2], radius: [usize; 2], slices: u32) -> Self {
+        let shape = PlaneShape {
+            w: window[0] as usize,
+            h: window[1] as usize,
+            rx: radius[0],
+            ry: radius[1],
+        };
+        CorrSumScratch {
+            window,
+            slices,
+            shape,
+            events: WindowEvents::default(),
+            voxeliser: Voxeliser::new(shape.w, shape.h),
+            a: Voxels::default(),
+            b: Voxels::default(),
+            stats: Vec::with_capacity(slices as usize),
+            plane: vec![0.0; shape.plane_width() * shape.plane_height()],
+            diff: vec![0.0; (shape.plane_width() + 1) * (shape.plane_height() + 1)],
+            fourier: None,
+        }
+    }
+}
+
+impl std::fmt::Debug for CorrSumScratch {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("CorrSumScratch")
+            .field("window", &self.window)
+            .field("shape", &self.shape)
+            .finish_non_exhaustive()
+    }
+}
+
+#[cfg(test)]
+mod tests;

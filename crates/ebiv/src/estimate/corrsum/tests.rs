@@ -1,0 +1,273 @@
+//! Kernel tests: direct and FFT planes against a dense evaluation of the definition.
+
+use super::fit::refine_tilted;
+use super::fourier::Fourier;
+use super::voxels::{slice_statistics, PlaneShape, SliceStats, Voxeliser, Voxels};
+use super::*;
+use crate::estimate::peak::find_peak;
+
+/// SplitMix64: a small deterministic generator for test inputs.
+struct Rng(u64);
+
+impl Rng {
+    fn next(&mut self) -> u64 {
+        self.0 = self.0.wrapping_add(0x9e37_79b9_7f4a_7c15);
+        let mut z = self.0;
+        z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
+        z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
+        z ^ (z >> 31)
+    }
+
+    fn below(&mut self, n: u64) -> u64 {
+        self.next() % n
+    }
+}
+
+/// Random events in a `w × h` window over `[0, slab)`.
+fn random_events(rng: &mut Rng, n: usize, w: u32, h: u32, slab: i64) -> WindowEvents {
+    let mut e = WindowEvents::default();
+    for _ in 0..n {
+        e.x.push(rng.below(w as u64) as f32);
+        e.y.push(rng.below(h as u64) as f32);
+        e.t.push(rng.below(slab as u64) as f32);
+    }
+    e
+}
+
+/// The definition, evaluated on dense images: Σ_z w_z Σ_O (a − ā)(b − b̄) / (n(Δ) · N).
+fn dense_plane(a: &Voxels, b: &Voxels, stats: &[SliceStats], s: PlaneShape) -> Vec<f64> {
+    let (pw, ph) = (s.plane_width(), s.plane_height());
+    let mut plane = vec![0.0; pw * ph];
+    let image = |v: &Voxels, z: usize| {
+        let mut img = vec![0.0; s.w * s.h];
+        for i in v.range(z) {
+            img[v.y[i] as usize * s.w + v.x[i] as usize] = v.v[i];
+        }
+        img
+    };
+    for st in stats {
+        let (ia, ib) = (image(a, st.z), image(b, st.z));
+        for iy in 0..ph {
+            for ix in 0..pw {
+                let (dx, dy) = (ix as isize - s.rx as isize, iy as isize - s.ry as isize);
+                let mut sum = 0.0;
+                for y in 0..s.h as isize {
+                    for x in 0..s.w as isize {
+                        let (x2, y2) = (x + dx, y + dy);
+                        if x2 < 0 || y2 < 0 || x2 >= s.w as isize || y2 >= s.h as isize {
+                            continue;
+                        }
+                        let pa = ia[y as usize * s.w + x as usize] - st.mean_a;
+                        let pb = ib[y2 as usize * s.w + x2 as usize] - st.mean_b;
+                        sum += pa * pb;
+                    }
+                }
+                plane[iy * pw + ix] += st.weight * sum;
+            }
+        }
+    }
+    voxels::normalise(&mut plane, s, stats.len());
+    plane
+}
+
+fn max_relative_difference(x: &[f64], y: &[f64]) -> f64 {
+    let scale = x.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+    x.iter()
+        .zip(y)
+        .map(|(p, q)| (p - q).abs() / scale)
+        .fold(0.0, f64::max)
+}
+
+#[test]
+fn direct_fft_and_definition_agree_on_random_inputs() {
+    let mut rng = Rng(7);
+    let cases = [
+        (40u32, 40u32, 20usize, 20usize, 20u32, 300usize, false),
+        (32, 24, 16, 12, 10, 200, true),
+        (17, 23, 5, 9, 7, 400, false),
+        (12, 12, 11, 11, 3, 120, true),
+        (40, 40, 20, 20, 20, 4000, false),
+    ];
+    for (case, &(w, h, rx, ry, slices, n, count)) in cases.iter().enumerate() {
+        let shape = PlaneShape {
+            w: w as usize,
+            h: h as usize,
+            rx,
+            ry,
+        };
+        let mut voxeliser = Voxeliser::new(shape.w, shape.h);
+        let (mut a, mut b) = (Voxels::default(), Voxels::default());
+        voxeliser.run(
+            &random_events(&mut rng, n, w, h, 1000),
+            1000,
+            slices,
+            count,
+            &mut a,
+        );
+        voxeliser.run(
+            &random_events(&mut rng, n, w, h, 1000),
+            1000,
+            slices,
+            count,
+            &mut b,
+        );
+        let mut stats = Vec::new();
+        slice_statistics(&a, &b, shape, &mut stats);
+        assert!(!stats.is_empty());
+        let (pw, ph) = (shape.plane_width(), shape.plane_height());
+        let mut direct = vec![0.0; pw * ph];
+        let mut diff = vec![0.0; (pw + 1) * (ph + 1)];
+        direct::correlate(&a, &b, &stats, shape, &mut direct, &mut diff);
+        let mut fft = vec![0.0; pw * ph];
+        Fourier::new(shape).correlate(&a, &b, &stats, &mut fft);
+        let dense = dense_plane(&a, &b, &stats, shape);
+        let e1 = max_relative_difference(&dense, &direct);
+        let e2 = max_relative_difference(&dense, &fft);
+        assert!(
+            e1 < 1e-9 && e2 < 1e-9,
+            "case {case}: direct {e1:e}, fft {e2:e}"
+        );
+    }
+}
+
+#[test]
+fn zero_lag_is_the_mean_pearson_coefficient() {
+    // Identical slices correlate perfectly at zero lag.
+    let mut rng = Rng(3);
+    let shape = PlaneShape {
+        w: 20,
+        h: 16,
+        rx: 6,
+        ry: 5,
+    };
+    let mut voxeliser = Voxeliser::new(20, 16);
+    let mut a = Voxels::default();
+    voxeliser.run(
+        &random_events(&mut rng, 150, 20, 16, 500),
+        500,
+        5,
+        false,
+        &mut a,
+    );
+    let b = a.clone();
+    let mut stats = Vec::new();
+    slice_statistics(&a, &b, shape, &mut stats);
+    let mut plane = vec![0.0; 13 * 11];
+    let mut diff = vec![0.0; 14 * 12];
+    direct::correlate(&a, &b, &stats, shape, &mut plane, &mut diff);
+    assert!(
+        (plane[5 * 13 + 6] - 1.0).abs() < 1e-12,
+        "{}",
+        plane[5 * 13 + 6]
+    );
+    assert!(plane.iter().all(|&v| v <= 1.0 + 1e-12));
+}
+
+#[test]
+fn voxeliser_bins_by_slice_and_deduplicates() {
+    let events = WindowEvents {
+        x: vec![1.0, 1.0, 1.0, 2.0, 3.0, 0.0],
+        y: vec![0.0, 0.0, 0.0, 1.0, 1.0, 0.0],
+        t: vec![0.0, 9.0, 10.0, 19.0, 99.0, 100.0],
+    };
+    let mut voxeliser = Voxeliser::new(4, 2);
+    let mut out = Voxels::default();
+    voxeliser.run(&events, 100, 10, false, &mut out);
+    assert_eq!(out.events, 5, "the event at t = slab is outside");
+    assert_eq!(out.start, vec![0, 1, 3, 3, 3, 3, 3, 3, 3, 3, 4]);
+    assert_eq!(out.v, vec![1.0; 4]);
+    voxeliser.run(&events, 100, 10, true, &mut out);
+    assert_eq!(out.v, vec![2.0, 1.0, 1.0, 1.0]);
+    assert_eq!((out.x[1], out.y[1]), (1, 0));
+}
+
+#[test]
+fn window_offsets_leave_at_most_half_a_pixel() {
+    for &d in &[-7.6, -3.5, -0.4, 0.0, 0.5, 1.49, 2.5, 18.3, 17.7] {
+        let s = window_offsets([d, -d]);
+        for axis in 0..2 {
+            let want = if axis == 0 { d } else { -d };
+            let residual = want - (s[0][axis] + s[1][axis]) as f64;
+            assert!(residual.abs() <= 0.5 + 1e-12, "{d}: {s:?}");
+            assert!((s[0][axis] - s[1][axis]).abs() <= 1, "symmetric: {s:?}");
+        }
+    }
+    assert_eq!(window_offsets([f64::NAN, 4.0]), [[0, 2], [0, 2]]);
+}
+
+#[test]
+fn parameters_validate_and_deserialise() {
+    assert!(CorrSumParams::default().validate().is_ok());
+    let bad = [
+        CorrSumParams {
+            tau_us: 0,
+            ..Default::default()
+        },
+        CorrSumParams {
+            slices: 0,
+            ..Default::default()
+        },
+        CorrSumParams {
+            slab_us: 10,
+            slices: 20,
+            tau_us: 5,
+            ..Default::default()
+        },
+        CorrSumParams {
+            tau_us: 20_000,
+            ..Default::default()
+        },
+        CorrSumParams {
+            tau_us: 400,
+            ..Default::default()
+        },
+        CorrSumParams {
+            slab_us: -5,
+            ..Default::default()
+        },
+        CorrSumParams {
+            search_radius_px: Some(0),
+            ..Default::default()
+        },
+    ];
+    for p in bad {
+        assert!(p.validate().is_err(), "{p:?}");
+        assert!(SumOfCorrelation::new(p).is_err());
+    }
+    let p: CorrSumParams =
+        toml::from_str("tau_us = 2000\nkernel = \"direct\"\nweighting = \"count\"").unwrap();
+    assert_eq!(p.tau_us, 2000);
+    assert_eq!(p.kernel, CorrKernel::Direct);
+    assert_eq!(p.weighting, Weighting::Count);
+    assert_eq!(p.slab_us, 10_000);
+    assert!(toml::from_str::<CorrSumParams>("taus = 1").is_err());
+    let e = SumOfCorrelation::new(CorrSumParams {
+        slab_us: 10_001,
+        ..Default::default()
+    })
+    .unwrap();
+    assert_eq!(e.time_extent_us(), (6501, 6501));
+}
+
+#[test]
+fn tilted_peaks_with_a_negative_neighbour_are_fitted_in_two_dimensions() {
+    // A narrow Gaussian elongated along (1, 1) at (5.3, 4.6); one corner pushed negative,
+    // as beside real event-correlation peaks.
+    let (w, h) = (11usize, 9usize);
+    let mut plane: Vec<f64> = (0..w * h)
+        .map(|i| {
+            let (x, y) = ((i % w) as f64 - 5.3, (i / w) as f64 - 4.6);
+            let (a, b) = ((x + y) / 2f64.sqrt(), (x - y) / 2f64.sqrt());
+            (-a * a / 4.0 - b * b / 0.6).exp()
+        })
+        .collect();
+    plane[3 * w + 6] = -0.01;
+    let peak = find_peak(&plane, w, h, SubPixelFit::Gaussian2d, 2).unwrap();
+    let [x, y] = refine_tilted(&plane, w, &peak, SubPixelFit::Gaussian2d);
+    assert!((x - 5.3).abs() < 0.03 && (y - 4.6).abs() < 0.03, "{x} {y}");
+    let axis_wise = ((peak.x - 5.3).powi(2) + (peak.y - 4.6).powi(2)).sqrt();
+    assert!(
+        axis_wise > 0.1,
+        "the axis-wise fall-back is biased here: {peak:?}"
+    );
+}

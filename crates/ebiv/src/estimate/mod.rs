@@ -1,0 +1,104 @@
+//! Velocity estimators for one interrogation window, behind one [`Estimator`] trait.
+//!
+//! The two event-native estimators of Willert & Klinner (Exp. Fluids 63:101, 2022):
+//! sum of correlation over time slices ([`corrsum`]) and motion compensation by contrast
+//! maximisation ([`motion`]). Both take a window, the slab holding its events and an
+//! optional predictor (from a previous pass), and return one velocity with its status and
+//! quality measures. Shared kernels: sub-pixel peak fits ([`peak`]).
+
+pub mod corrsum;
+pub mod motion;
+pub mod peak;
+
+use crate::field::Status;
+use crate::grid::Window;
+use crate::volume::{Slab, WindowEvents};
+
+pub use crate::volume::Deformation;
+
+/// What a previous pass predicts for a window: the velocity at its centre and, where the
+/// predictor field allows, the local velocity gradient used to deform the events.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Prediction {
+    /// Velocity at the window centre, px/ms.
+    pub velocity: [f64; 2],
+    /// Affine motion around the window centre (PIV window deformation, for events).
+    pub deformation: Option<Deformation>,
+}
+
+/// Gather the events of `window` in `[t_from, t_to)` (times relative to `t_ref_us`),
+/// deformed by the prediction's affine motion when there is one.
+pub(crate) fn gather_predicted(
+    slab: &Slab,
+    window: &Window,
+    (t_from, t_to, t_ref_us): (i64, i64, i64),
+    prediction: Option<&Prediction>,
+    out: &mut WindowEvents,
+) {
+    match prediction.and_then(|p| p.deformation) {
+        Some(d) => slab.gather_deformed(window, t_from, t_to, t_ref_us, &d, out),
+        None => slab.gather(window, t_from, t_to, t_ref_us, out),
+    }
+}
+
+/// The result for one window.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct WindowEstimate {
+    /// x velocity, px/ms (NaN if invalid).
+    pub u: f64,
+    /// y velocity (image rows, positive down), px/ms (NaN if invalid).
+    pub v: f64,
+    /// Why the estimate is invalid, if it is.
+    pub status: Status,
+    /// Peak value: summed normalised correlation, or the objective's maximum.
+    pub peak: f32,
+    /// First-to-second peak ratio (NaN where not defined).
+    pub peak_ratio: f32,
+    /// Events the estimate is based on.
+    pub event_count: u32,
+}
+
+impl WindowEstimate {
+    /// An invalid estimate: NaN velocity with `status`.
+    pub fn invalid(status: Status, event_count: u32) -> Self {
+        WindowEstimate {
+            u: f64::NAN,
+            v: f64::NAN,
+            status,
+            peak: f32::NAN,
+            peak_ratio: f32::NAN,
+            event_count,
+        }
+    }
+}
+
+/// A velocity estimator for one window of events.
+pub trait Estimator: Sync {
+    /// Per-thread working memory (FFT buffers, images), reused across windows.
+    type Scratch: Send;
+
+    /// Short name written into output metadata (`corrsum`, `motion`).
+    fn name(&self) -> &'static str;
+
+    /// Working memory for windows of `window` = [width, height] px.
+    fn scratch(&self, window: [u32; 2]) -> Self::Scratch;
+
+    /// Events needed around a field time t0: `[t0 − before, t0 + after)`, as `(before,
+    /// after)` in µs.
+    fn time_extent_us(&self) -> (i64, i64);
+
+    /// Estimate the velocity of the events of `window` around time `t0_us`. `predictor` is
+    /// what a previous pass expects there; without it the estimator searches its default
+    /// range on undeformed events.
+    fn estimate(
+        &self,
+        slab: &Slab,
+        window: &Window,
+        t0_us: i64,
+        predictor: Option<&Prediction>,
+        scratch: &mut Self::Scratch,
+    ) -> WindowEstimate;
+
+    /// The parameters as `(name, value with unit)` pairs, for output metadata.
+    fn parameters(&self) -> Vec<(String, String)>;
+}

@@ -1,0 +1,277 @@
+//! Coarse-to-fine search of the velocity that maximises the IWE objective.
+//!
+//! Candidates lie on an integer lattice of the finest step around the search centre (the
+//! predictor or zero), so no grid depends on floating-point `arange` end points
+//! (algorithms.md §4.5 item 5) and every candidate is evaluated at most once per level.
+//!
+//! 1. **Pyramid** (only for ranges wider than a few coarse steps): the whole range is scanned
+//!    at `coarse_step · 2^L` on a canvas of `≈ 2^L` px cells with bilinear splatting, then
+//!    refined level by level (5 × 5 neighbourhoods) down to twice the coarse step. A cell as
+//!    large as the displacement step keeps the objective smooth at that step, so no peak
+//!    falls between candidates, at a fraction of the cost of scanning the full range at
+//!    `coarse_step`.
+//! 2. **Coarse step**: the 5 × 5 neighbourhood at `coarse_step` with the configured splat. A
+//!    best candidate on the edge of the range is flagged out of range
+//!    (algorithms.md §4.5 item 3).
+//! 3. **Refinement** (Willert & Klinner 2022: 0.25 → 0.05 px/ms): 5 × 5 neighbourhoods
+//!    around the current best, re-centred while the best lies on their border, halving the
+//!    step while it stays ≥ `final_step`.
+//! 4. A 3-point fit per axis (or a 2-D Gaussian) through the best lattice point.
+
+use super::iwe::{evaluate, Canvas, Events, SplatTable, Workspace};
+use super::MotionParams;
+use crate::estimate::peak::{self, SubPixelFit};
+use crate::field::Status;
+
+/// Largest half-width, in steps, of the grid scanned at the top of the pyramid.
+const TOP_HALF: i64 = 3;
+/// Re-centrings allowed per level before moving on.
+const MAX_CLIMB: usize = 6;
+
+/// Outcome of a search.
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct Outcome {
+    pub velocity: [f64; 2],
+    pub status: Status,
+    pub peak: f64,
+    pub peak_ratio: f64,
+}
+
+/// Per-thread search memory.
+#[derive(Debug, Clone, Default)]
+pub(crate) struct SearchScratch {
+    pub work: Workspace,
+    /// Evaluated lattice points of the current level: `(kx, ky, value)`.
+    cache: Vec<(i64, i64, f64)>,
+    map: Vec<f64>,
+}
+
+/// The search of one window.
+pub(crate) struct Search<'a> {
+    pub events: &'a Events,
+    pub window: [u32; 2],
+    pub centre: [f64; 2],
+    /// Half-width of the search range, px/ms.
+    pub range: f64,
+    pub params: &'a MotionParams,
+    pub fine: &'a SplatTable,
+    pub coarse: &'a SplatTable,
+}
+
+impl Search<'_> {
+    /// Run the search. `None` if the canvas would be unreasonably large (absurd predictor).
+    pub fn run(&self, s: &mut SearchScratch) -> Option<Outcome> {
+        let p = self.params;
+        let t_max = self.events.t.iter().fold(0f32, |m, t| m.max(t.abs())) as f64;
+        // Refinement halvings: the last step is the smallest coarse_step / 2^m ≥ final_step.
+        let mut refinements = 0u32;
+        while p.coarse_step / f64::from(1u32 << (refinements + 1)) >= p.final_step * (1.0 - 1e-9) {
+            refinements += 1;
+        }
+        let unit = p.coarse_step / f64::from(1u32 << refinements);
+        let n_coarse = ((self.range / p.coarse_step) - 1e-9).ceil().max(1.0) as i64;
+        let limit = n_coarse << refinements;
+        // Pyramid height: cells no larger than an eighth of the window.
+        let bin = |level: u32| (f64::from(1u32 << level) * p.coarse_step * t_max * 0.8).max(1.0);
+        let max_bin = (self.window[0].min(self.window[1]) as f64 / 8.0).max(1.0);
+        let mut top = 0u32;
+        while (n_coarse + (1 << top) - 1) >> top > TOP_HALF && bin(top + 1) <= max_bin {
+            top += 1;
+        }
+        let max_speed = [
+            self.centre[0].abs() + limit as f64 * unit,
+            self.centre[1].abs() + limit as f64 * unit,
+        ];
+        let shift = [max_speed[0] * t_max, max_speed[1] * t_max];
+        let fine_canvas = Canvas::covering(self.window, shift, 1.0, self.fine);
+        if fine_canvas.width.max(fine_canvas.height) > 16_384 {
+            return None;
+        }
+        // Level `l` of the pyramid: lattice step 2^(refinements + l) units.
+        let level_step = |l: u32| 1i64 << (refinements + l);
+        // The configured splat below the coarse step; bilinear cells matched to the step above
+        // and at it (the refinement re-centres on the configured splat's maximum).
+        let canvas_of = |l: u32| {
+            if l == 0 && top == 0 {
+                (fine_canvas, self.fine)
+            } else {
+                (
+                    Canvas::covering(self.window, shift, bin(l), self.coarse),
+                    self.coarse,
+                )
+            }
+        };
+
+        // 1. Full scan at the top level.
+        let (canvas, table) = canvas_of(top);
+        let step = level_step(top);
+        let half = limit / step;
+        let side = (2 * half + 1) as usize;
+        s.cache.clear();
+        s.map.clear();
+        let mut best = (0i64, 0i64, f64::NEG_INFINITY);
+        for j in -half..=half {
+            for i in -half..=half {
+                let k = (i * step, j * step);
+                let value = self.value(k, unit, &canvas, table, &mut s.work);
+                s.map.push(value);
+                s.cache.push((k.0, k.1, value));
+                if value > best.2 {
+                    best = (k.0, k.1, value);
+                }
+            }
+        }
+        let (lo, hi) = s
+            .map
+            .iter()
+            .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), &v| {
+                (lo.min(v), hi.max(v))
+            });
+        if !(hi.is_finite() && lo.is_finite()) || hi - lo <= 1e-12 * hi.abs().max(1e-300) {
+            return Some(Outcome {
+                velocity: [f64::NAN; 2],
+                status: Status::NO_PEAK,
+                peak: hi,
+                peak_ratio: f64::NAN,
+            });
+        }
+        s.map.iter_mut().for_each(|v| *v -= lo);
+        let peak_ratio = peak::find_peak(&s.map, side, side, SubPixelFit::Parabolic3, 1)
+            .map_or(f64::NAN, |pk| pk.ratio());
+
+        // 2. Down the pyramid to the coarse step, then refine.
+        for l in (0..top).rev() {
+            let (canvas, table) = canvas_of(l);
+            s.cache.clear();
+            best = self.climb(best, level_step(l), 2, limit, unit, &canvas, table, s);
+        }
+        let mut status = Status::VALID;
+        if best.0.abs() >= limit || best.1.abs() >= limit {
+            status = Status::OUT_OF_RANGE;
+        }
+        if top > 0 {
+            s.cache.clear();
+            best.2 = self.cached((best.0, best.1), unit, &fine_canvas, self.fine, s);
+        }
+        for m in 1..=refinements {
+            let step = 1 << (refinements - m);
+            best = self.climb(best, step, 1, limit, unit, &fine_canvas, self.fine, s);
+        }
+
+        // 3. Sub-grid fit through the best lattice point.
+        let mut at = |dx: i64, dy: i64| {
+            let k = (best.0 + dx, best.1 + dy);
+            self.cached(k, unit, &fine_canvas, self.fine, s)
+        };
+        let fit = p.fit;
+        let mut offset = None;
+        if fit == SubPixelFit::Gaussian2d {
+            let mut n = [[0.0; 3]; 3];
+            for (r, row) in n.iter_mut().enumerate() {
+                for (c, v) in row.iter_mut().enumerate() {
+                    *v = at(c as i64 - 1, r as i64 - 1);
+                }
+            }
+            offset = peak::gaussian_2d(n);
+        }
+        let offset = offset.unwrap_or_else(|| {
+            let fit = if fit == SubPixelFit::Gaussian2d {
+                SubPixelFit::Gaussian3
+            } else {
+                fit
+            };
+            let b = best.2;
+            let dx = peak::three_point(at(-1, 0), b, at(1, 0), fit).unwrap_or(0.0);
+            let dy = peak::three_point(at(0, -1), b, at(0, 1), fit).unwrap_or(0.0);
+            (dx, dy)
+        });
+        Some(Outcome {
+            velocity: [
+                self.centre[0] + (best.0 as f64 + offset.0) * unit,
+                self.centre[1] + (best.1 as f64 + offset.1) * unit,
+            ],
+            status,
+            peak: best.2,
+            peak_ratio,
+        })
+    }
+
+    /// Objective at lattice point `k`.
+    fn value(
+        &self,
+        k: (i64, i64),
+        unit: f64,
+        canvas: &Canvas,
+        table: &SplatTable,
+        work: &mut Workspace,
+    ) -> f64 {
+        let velocity = [
+            self.centre[0] + k.0 as f64 * unit,
+            self.centre[1] + k.1 as f64 * unit,
+        ];
+        evaluate(
+            self.events,
+            velocity,
+            canvas,
+            table,
+            self.params.objective,
+            work,
+        )
+    }
+
+    /// Objective at `k`, from the level's cache if evaluated before.
+    fn cached(
+        &self,
+        k: (i64, i64),
+        unit: f64,
+        canvas: &Canvas,
+        table: &SplatTable,
+        s: &mut SearchScratch,
+    ) -> f64 {
+        if let Some(&(_, _, v)) = s.cache.iter().find(|c| (c.0, c.1) == k) {
+            return v;
+        }
+        let v = self.value(k, unit, canvas, table, &mut s.work);
+        s.cache.push((k.0, k.1, v));
+        v
+    }
+
+    /// Hill-climb on (2 `reach` + 1)² neighbourhoods of spacing `step` inside `±limit`,
+    /// re-centring while the best point lies on the neighbourhood's border.
+    #[allow(clippy::too_many_arguments)]
+    fn climb(
+        &self,
+        start: (i64, i64, f64),
+        step: i64,
+        reach: i64,
+        limit: i64,
+        unit: f64,
+        canvas: &Canvas,
+        table: &SplatTable,
+        s: &mut SearchScratch,
+    ) -> (i64, i64, f64) {
+        let mut centre = start;
+        for _ in 0..MAX_CLIMB {
+            let mut best = (centre.0, centre.1, f64::NEG_INFINITY);
+            for j in -reach..=reach {
+                for i in -reach..=reach {
+                    let k = (centre.0 + i * step, centre.1 + j * step);
+                    if k.0.abs() > limit || k.1.abs() > limit {
+                        continue;
+                    }
+                    let v = self.cached(k, unit, canvas, table, s);
+                    if v > best.2 {
+                        best = (k.0, k.1, v);
+                    }
+                }
+            }
+            let on_border = (best.0 - centre.0).abs() == reach * step
+                || (best.1 - centre.1).abs() == reach * step;
+            centre = best;
+            if !on_border {
+                break;
+            }
+        }
+        centre
+    }
+}

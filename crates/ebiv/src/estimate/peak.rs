@@ -1,0 +1,286 @@
+//! Peak location in a correlation plane or objective map, with sub-pixel fits.
+//!
+//! Three-point estimators per axis through the integer maximum (Gaussian with parabolic
+//! fall-back, as in Raffel et al., "Particle Image Velocimetry", 3rd ed., §5.4.3), a 2-D
+//! Gaussian fit on the 3 × 3 neighbourhood (Nobach & Honkanen 2005, Exp. Fluids 38:511), and
+//! the ratio of the highest to the second-highest local maximum (Keane & Adrian 1992).
+
+use serde::{Deserialize, Serialize};
+
+/// Sub-pixel peak estimator.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum SubPixelFit {
+    /// 3-point Gaussian per axis; parabolic where a value is not positive.
+    #[default]
+    Gaussian3,
+    /// 3-point parabola per axis.
+    Parabolic3,
+    /// 2-D Gaussian on the 3 × 3 neighbourhood (handles elliptic, tilted peaks); falls back
+    /// to the 3-point Gaussian where a value is not positive.
+    Gaussian2d,
+}
+
+impl SubPixelFit {
+    /// Parse `gauss3`, `parabolic`, `gauss2d` (and the serde names).
+    pub fn parse(text: &str) -> Option<Self> {
+        match text {
+            "gauss3" | "gaussian3" | "gaussian" => Some(SubPixelFit::Gaussian3),
+            "parabolic" | "parabolic3" | "parabola" => Some(SubPixelFit::Parabolic3),
+            "gauss2d" | "gaussian2d" => Some(SubPixelFit::Gaussian2d),
+            _ => None,
+        }
+    }
+}
+
+/// A located peak.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Peak {
+    /// Column of the integer maximum.
+    pub col: usize,
+    /// Row of the integer maximum.
+    pub row: usize,
+    /// Sub-pixel position along columns (`col` + fitted offset).
+    pub x: f64,
+    /// Sub-pixel position along rows.
+    pub y: f64,
+    /// Value at the integer maximum.
+    pub value: f64,
+    /// The maximum lies on the border of the map: no fit was possible there and the true
+    /// peak may lie outside.
+    pub on_edge: bool,
+    /// Highest local maximum outside the exclusion zone around the first (NaN if none).
+    pub second: f64,
+}
+
+impl Peak {
+    /// First-to-second peak ratio, NaN where the second peak is missing or not positive.
+    pub fn ratio(&self) -> f64 {
+        if self.second > 0.0 && self.value.is_finite() {
+            self.value / self.second
+        } else {
+            f64::NAN
+        }
+    }
+}
+
+/// Offset of the extremum of three equally spaced samples `a, b, c` (at −1, 0, +1) from the
+/// centre, in sample steps; `None` if `b` is not a strict maximum of a concave triple.
+pub fn three_point(a: f64, b: f64, c: f64, fit: SubPixelFit) -> Option<f64> {
+    if !(a.is_finite() && b.is_finite() && c.is_finite()) || b < a || b < c {
+        return None;
+    }
+    let gaussian = fit != SubPixelFit::Parabolic3 && a > 0.0 && b > 0.0 && c > 0.0;
+    let (a, b, c) = if gaussian {
+        (a.ln(), b.ln(), c.ln())
+    } else {
+        (a, b, c)
+    };
+    let denominator = 2.0 * a - 4.0 * b + 2.0 * c;
+    if denominator >= 0.0 {
+        return (a == b && b == c).then_some(0.0);
+    }
+    let d = (a - c) / denominator;
+    (d.abs() <= 1.0).then_some(d)
+}
+
+/// 2-D Gaussian fit of the 3 × 3 neighbourhood `n[row][col]` centred on the maximum, after
+/// Nobach & Honkanen (2005): least squares of a quadratic to the logarithms. `None` where a
+/// value is not positive or the quadratic is not a maximum.
+pub fn gaussian_2d(n: [[f64; 3]; 3]) -> Option<(f64, f64)> {
+    let mut l = [[0.0; 3]; 3];
+    for r in 0..3 {
+        for c in 0..3 {
+            if n[r][c].is_nan() || n[r][c] <= 0.0 {
+                return None;
+            }
+            l[r][c] = n[r][c].ln();
+        }
+    }
+    // Least-squares coefficients of ln f = c0 + cx x + cy y + cxx x² + cyy y² + cxy x y.
+    let (mut cx, mut cy, mut cxy, mut cxx, mut cyy) = (0.0, 0.0, 0.0, 0.0, 0.0);
+    for (r, row) in l.iter().enumerate() {
+        for (c, &v) in row.iter().enumerate() {
+            let (x, y) = (c as f64 - 1.0, r as f64 - 1.0);
+            cx += x * v / 6.0;
+            cy += y * v / 6.0;
+            cxy += x * y * v / 4.0;
+            cxx += (3.0 * x * x - 2.0) * v / 6.0;
+            cyy += (3.0 * y * y - 2.0) * v / 6.0;
+        }
+    }
+    let det = 4.0 * cxx * cyy - cxy * cxy;
+    if cxx >= 0.0 || det <= 0.0 || cxx.is_nan() || det.is_nan() {
+        return None;
+    }
+    let dx = (cxy * cy - 2.0 * cyy * cx) / det;
+    let dy = (cxy * cx - 2.0 * cxx * cy) / det;
+    (dx.abs() <= 1.0 && dy.abs() <= 1.0).then_some((dx, dy))
+}
+
+/// Locate the maximum of a `width` × `height` row-major map, fit it to sub-pixel accuracy,
+/// and find the second-highest local maximum at least `exclusion` samples (Chebyshev
+/// distance) away. `None` for an empty map or one without a finite value.
+pub fn find_peak(
+    map: &[f64],
+    width: usize,
+    height: usize,
+    fit: SubPixelFit,
+    exclusion: usize,
+) -> Option<Peak> {
+    if width == 0 || height == 0 || map.len() < width * height {
+        return None;
+    }
+    let (mut best, mut value) = (usize::MAX, f64::NEG_INFINITY);
+    for (i, &m) in map[..width * height].iter().enumerate() {
+        if m > value {
+            value = m;
+            best = i;
+        }
+    }
+    if best == usize::MAX {
+        return None;
+    }
+    let (row, col) = (best / width, best % width);
+    let at = |r: usize, c: usize| map[r * width + c];
+    let on_edge_x = col == 0 || col + 1 == width;
+    let on_edge_y = row == 0 || row + 1 == height;
+    let mut x = col as f64;
+    let mut y = row as f64;
+    let mut fitted = false;
+    if fit == SubPixelFit::Gaussian2d && !on_edge_x && !on_edge_y {
+        let mut n = [[0.0; 3]; 3];
+        for (dr, nr) in n.iter_mut().enumerate() {
+            for (dc, v) in nr.iter_mut().enumerate() {
+                *v = at(row + dr - 1, col + dc - 1);
+            }
+        }
+        if let Some((dx, dy)) = gaussian_2d(n) {
+            x += dx;
+            y += dy;
+            fitted = true;
+        }
+    }
+    if !fitted {
+        let fit1 = if fit == SubPixelFit::Gaussian2d {
+            SubPixelFit::Gaussian3
+        } else {
+            fit
+        };
+        if !on_edge_x {
+            x += three_point(at(row, col - 1), value, at(row, col + 1), fit1).unwrap_or(0.0);
+        }
+        if !on_edge_y {
+            y += three_point(at(row - 1, col), value, at(row + 1, col), fit1).unwrap_or(0.0);
+        }
+    }
+    let second = second_peak(map, width, height, row, col, exclusion);
+    Some(Peak {
+        col,
+        row,
+        x,
+        y,
+        value,
+        on_edge: on_edge_x || on_edge_y,
+        second,
+    })
+}
+
+/// Highest local maximum (≥ its 8 neighbours) farther than `exclusion` from `(row, col)`.
+fn second_peak(
+    map: &[f64],
+    width: usize,
+    height: usize,
+    row: usize,
+    col: usize,
+    exclusion: usize,
+) -> f64 {
+    let mut second = f64::NAN;
+    for r in 0..height {
+        for c in 0..width {
+            if r.abs_diff(row) <= exclusion && c.abs_diff(col) <= exclusion {
+                continue;
+            }
+            let v = map[r * width + c];
+            if !(v > second || second.is_nan()) || !v.is_finite() {
+                continue;
+            }
+            let is_local_max = (r.saturating_sub(1)..(r + 2).min(height)).all(|rr| {
+                (c.saturating_sub(1)..(c + 2).min(width)).all(|cc| map[rr * width + cc] <= v)
+            });
+            if is_local_max {
+                second = v;
+            }
+        }
+    }
+    second
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn gaussian_map(w: usize, h: usize, cx: f64, cy: f64, sx: f64, sy: f64) -> Vec<f64> {
+        (0..w * h)
+            .map(|i| {
+                let (x, y) = ((i % w) as f64, (i / w) as f64);
+                (-(x - cx).powi(2) / (2.0 * sx * sx) - (y - cy).powi(2) / (2.0 * sy * sy)).exp()
+            })
+            .collect()
+    }
+
+    #[test]
+    fn three_point_gaussian_is_exact_for_gaussians() {
+        for &d in &[-0.45, -0.2, 0.0, 0.13, 0.49] {
+            let g = |x: f64| (-(x - d).powi(2) / 2.0).exp();
+            let got = three_point(g(-1.0), g(0.0), g(1.0), SubPixelFit::Gaussian3).unwrap();
+            assert!((got - d).abs() < 1e-12, "{got} vs {d}");
+        }
+        let p = |x: f64| 5.0 - (x - 0.3).powi(2);
+        let got = three_point(p(-1.0), p(0.0), p(1.0), SubPixelFit::Parabolic3).unwrap();
+        assert!((got - 0.3).abs() < 1e-12);
+        // Non-positive values fall back to the parabola.
+        let q = |x: f64| -(x - 0.2).powi(2);
+        let got = three_point(q(-1.0), q(0.0), q(1.0), SubPixelFit::Gaussian3).unwrap();
+        assert!((got - 0.2).abs() < 1e-12);
+        assert_eq!(three_point(1.0, 0.5, 0.2, SubPixelFit::Gaussian3), None);
+    }
+
+    #[test]
+    fn gaussian_2d_recovers_tilted_peaks_and_falls_back() {
+        let m = gaussian_map(9, 7, 4.3, 2.8, 1.2, 0.9);
+        let p = find_peak(&m, 9, 7, SubPixelFit::Gaussian2d, 2).unwrap();
+        assert!(
+            (p.x - 4.3).abs() < 1e-9 && (p.y - 2.8).abs() < 1e-9,
+            "{p:?}"
+        );
+        let p3 = find_peak(&m, 9, 7, SubPixelFit::Gaussian3, 2).unwrap();
+        assert!((p3.x - 4.3).abs() < 1e-9 && (p3.y - 2.8).abs() < 1e-9);
+        // A rotated elliptic peak: the 2-D fit is exact, the axis-wise fit is not.
+        let rot: Vec<f64> = (0..81)
+            .map(|i| {
+                let (x, y) = ((i % 9) as f64 - 4.2, (i / 9) as f64 - 3.7);
+                let (a, b) = (x + y, x - y);
+                (-(a * a) / 6.0 - b * b / 1.0).exp()
+            })
+            .collect();
+        let p = find_peak(&rot, 9, 9, SubPixelFit::Gaussian2d, 2).unwrap();
+        assert!(
+            (p.x - 4.2).abs() < 1e-9 && (p.y - 3.7).abs() < 1e-9,
+            "{p:?}"
+        );
+    }
+
+    #[test]
+    fn edge_peaks_are_flagged_and_second_peak_found() {
+        let mut m = gaussian_map(8, 8, 0.0, 3.0, 1.0, 1.0);
+        let p = find_peak(&m, 8, 8, SubPixelFit::Gaussian3, 2).unwrap();
+        assert!(p.on_edge);
+        assert_eq!(p.x, 0.0);
+        m[6 * 8 + 6] += 0.25;
+        let p = find_peak(&m, 8, 8, SubPixelFit::Gaussian3, 2).unwrap();
+        assert!((p.ratio() - 1.0 / (0.25 + m[6 * 8 + 6] - 0.25)).abs() < 1e-9);
+        assert!(find_peak(&[], 0, 0, SubPixelFit::Gaussian3, 1).is_none());
+        assert!(find_peak(&[f64::NAN; 4], 2, 2, SubPixelFit::Gaussian3, 1).is_none());
+    }
+}

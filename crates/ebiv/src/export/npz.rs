@@ -1,0 +1,211 @@
+//! Vector fields as NumPy `.npz`: a ZIP archive of `.npy` arrays (NumPy Enhancement
+//! Proposal 1, "A simple file format for NumPy arrays", format version 1.0: magic, header
+//! dict with `descr`, `fortran_order`, `shape`, padded to a multiple of 64 bytes;
+//! little-endian, C order), deflate-compressed like `numpy.savez_compressed`.
+//!
+//! Arrays: `x`, `y` (`<f8`, px), `t_us` (`<i8`), and with shape `(nt, ny, nx)`: `u`, `v`
+//! (`<f4`, px/ms, NaN = invalid), `status` (`|u1`, bits of [`Status`]), `peak`,
+//! `peak_ratio` (`<f4`), `event_count` (`<u4`). With a calibration also `x_mm`, `y_mm`
+//! (`<f8`) and `u_m_s`, `v_m_s` (`<f4`; y and v positive up when `y_up`). `attributes` is a
+//! 1-D unicode array (`<U…`) of `key=value` strings: axis convention, units, status legend,
+//! calibration, software and the series' attributes. Everything loads with
+//! `numpy.load(path)` without pickles.
+//!
+//! [`Status`]: crate::field::Status
+
+use super::{check, metadata, write_atomic, Physical};
+use crate::error::Result;
+use crate::field::FieldSeries;
+use std::io::Write;
+use std::path::Path;
+
+/// An element type that has a `.npy` type descriptor.
+trait NpyElement: Copy {
+    /// The NumPy `descr` string, e.g. `<f4`.
+    const DESCR: &'static str;
+    /// Append the little-endian bytes of `self`.
+    fn put(self, out: &mut Vec<u8>);
+}
+
+macro_rules! npy_element {
+    ($t:ty, $descr:literal) => {
+        impl NpyElement for $t {
+            const DESCR: &'static str = $descr;
+            fn put(self, out: &mut Vec<u8>) {
+                out.extend_from_slice(&self.to_le_bytes());
+            }
+        }
+    };
+}
+
+npy_element!(f64, "<f8");
+npy_element!(f32, "<f4");
+npy_element!(i64, "<i8");
+npy_element!(u32, "<u4");
+npy_element!(u8, "|u1");
+
+/// A version 1.0 `.npy` header for a C-order array of type `descr` and `shape`, padded
+/// with spaces and a final newline to a multiple of 64 bytes.
+fn npy_header(descr: &str, shape: &[usize]) -> Vec<u8> {
+    let shape = match shape {
+        [n] => format!("({n},)"),
+        dims => format!(
+            "({})",
+            dims.iter()
+                .map(|d| d.to_string())
+                .collect::<Vec<_>>()
+                .join(", ")
+        ),
+    };
+    let dict = format!("{{'descr': '{descr}', 'fortran_order': False, 'shape': {shape}, }}");
+    let total = (10 + dict.len() + 1).div_ceil(64) * 64;
+    let mut out = Vec::with_capacity(total);
+    out.extend_from_slice(b"\x93NUMPY\x01\x00");
+    out.extend_from_slice(&((total - 10) as u16).to_le_bytes());
+    out.extend_from_slice(dict.as_bytes());
+    out.resize(total - 1, b' ');
+    out.push(b'\n');
+    out
+}
+
+/// A complete `.npy` file of `data` with `shape`.
+fn npy<T: NpyElement>(data: &[T], shape: &[usize]) -> Vec<u8> {
+    let mut out = npy_header(T::DESCR, shape);
+    out.reserve(std::mem::size_of_val(data));
+    for &v in data {
+        v.put(&mut out);
+    }
+    out
+}
+
+/// A `.npy` file of a 1-D unicode array (`<U{n}`: UCS-4 little-endian, each string padded
+/// with NUL code points to the longest one).
+fn npy_strings(strings: &[String]) -> Vec<u8> {
+    let width = strings
+        .iter()
+        .map(|s| s.chars().count())
+        .max()
+        .unwrap_or(0)
+        .max(1);
+    let mut out = npy_header(&format!("<U{width}"), &[strings.len()]);
+    for s in strings {
+        let mut n = 0;
+        for c in s.chars() {
+            out.extend_from_slice(&(c as u32).to_le_bytes());
+            n += 1;
+        }
+        out.resize(out.len() + 4 * (width - n), 0);
+    }
+    out
+}
+
+/// Write `field` as a NumPy `.npz` archive, through a temporary file.
+pub fn write_field_npz(field: &FieldSeries, path: &Path) -> Result<()> {
+    check(field)?;
+    let shape = [field.t_us.len(), field.y.len(), field.x.len()];
+    let status: Vec<u8> = field.status.iter().map(|s| s.0).collect();
+    let mut members: Vec<(&str, Vec<u8>)> = vec![
+        ("x", npy(&field.x, &[field.x.len()])),
+        ("y", npy(&field.y, &[field.y.len()])),
+        ("t_us", npy(&field.t_us, &[field.t_us.len()])),
+        ("u", npy(&field.u, &shape)),
+        ("v", npy(&field.v, &shape)),
+        ("status", npy(&status, &shape)),
+        ("peak", npy(&field.peak, &shape)),
+        ("peak_ratio", npy(&field.peak_ratio, &shape)),
+        ("event_count", npy(&field.event_count, &shape)),
+    ];
+    if let Some(c) = &field.calibration {
+        let p = Physical::new(field, c);
+        members.push(("x_mm", npy(&p.x_mm, &[p.x_mm.len()])));
+        members.push(("y_mm", npy(&p.y_mm, &[p.y_mm.len()])));
+        members.push(("u_m_s", npy(&p.u, &shape)));
+        members.push(("v_m_s", npy(&p.v, &shape)));
+    }
+    let attributes: Vec<String> = metadata(field)
+        .into_iter()
+        .map(|(k, v)| format!("{k}={v}"))
+        .collect();
+    members.push(("attributes", npy_strings(&attributes)));
+
+    write_atomic(path, |w| {
+        use zip::write::SimpleFileOptions;
+        let mut zip = zip::ZipWriter::new(w);
+        for (name, bytes) in &members {
+            let options = SimpleFileOptions::default()
+                .compression_method(zip::CompressionMethod::Deflated)
+                .large_file(bytes.len() as u64 >= u32::MAX as u64);
+            zip.start_file(format!("{name}.npy"), options)
+                .map_err(zip_io)?;
+            zip.write_all(bytes)?;
+        }
+        zip.finish().map_err(zip_io)?;
+        Ok(())
+    })
+}
+
+/// A ZIP error as an I/O error (the caller adds the path).
+fn zip_io(e: zip::result::ZipError) -> std::io::Error {
+    match e {
+        zip::result::ZipError::Io(io) => io,
+        other => std::io::Error::other(other.to_string()),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn header_is_padded_to_64_bytes_with_the_shape() {
+        let h = npy_header("<f4", &[2, 3, 4]);
+        assert_eq!(h.len() % 64, 0);
+        assert_eq!(&h[..8], b"\x93NUMPY\x01\x00");
+        assert_eq!(u16::from_le_bytes([h[8], h[9]]) as usize, h.len() - 10);
+        let text = std::str::from_utf8(&h[10..]).unwrap();
+        assert!(text.starts_with("{'descr': '<f4', 'fortran_order': False, 'shape': (2, 3, 4), }"));
+        assert!(text.ends_with(" \n"));
+        let one = npy_header("<i8", &[5]);
+        assert!(std::str::from_utf8(&one[10..])
+            .unwrap()
+            .contains("'shape': (5,)"));
+    }
+
+    #[test]
+    fn strings_are_ucs4_padded_to_the_longest() {
+        let data = npy_strings(&["ab".into(), "µ".into()]);
+        let header = npy_header("<U2", &[2]);
+        assert_eq!(&data[..header.len()], &header[..]);
+        let body = &data[header.len()..];
+        assert_eq!(body.len(), 16);
+        assert_eq!(&body[..8], &[b'a', 0, 0, 0, b'b', 0, 0, 0]);
+        assert_eq!(&body[8..], &[0xB5, 0, 0, 0, 0, 0, 0, 0]);
+    }
+
+    #[test]
+    fn archive_holds_every_array() {
+        let f = FieldSeries::new(vec![0.0, 1.0], vec![0.0], vec![3]);
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("f.npz");
+        write_field_npz(&f, &path).unwrap();
+        let zip = zip::ZipArchive::new(std::fs::File::open(&path).unwrap()).unwrap();
+        let mut names: Vec<&str> = zip.file_names().collect();
+        names.sort_unstable();
+        assert_eq!(
+            names,
+            [
+                "attributes.npy",
+                "event_count.npy",
+                "peak.npy",
+                "peak_ratio.npy",
+                "status.npy",
+                "t_us.npy",
+                "u.npy",
+                "v.npy",
+                "x.npy",
+                "y.npy"
+            ]
+        );
+        assert!(!dir.path().join("f.npz.partial").exists());
+    }
+}

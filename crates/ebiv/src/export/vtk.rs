@@ -1,0 +1,230 @@
+//! Vector fields as legacy VTK files ("VTK File Formats", VTK User's Guide, section "Simple
+//! Legacy Formats"): `DATASET RECTILINEAR_GRID` with `DIMENSIONS nx ny 1`, `X_COORDINATES`,
+//! `Y_COORDINATES` (`double`), `Z_COORDINATES` (0), and `POINT_DATA` with
+//! `VECTORS velocity float` (u, v, 0), `SCALARS status unsigned_char` (0 = valid, else the
+//! bits of [`Status`]) and a `FIELD` with `peak`, `peak_ratio` (`float`) and `event_count`
+//! (`unsigned_int`): field arrays are loaded by every legacy reader, where a second
+//! `SCALARS` section is skipped unless the reader is told to read all of them.
+//!
+//! The files are `BINARY` (big-endian, as the legacy format prescribes): VTK's ASCII legacy
+//! reader does not parse `nan`, and invalid vectors must stay NaN, never zero. Coordinates
+//! ascend as VTK expects: with a `y_up` calibration the rows are written bottom row first.
+//!
+//! One file per time step. A single field goes to `path`; a series of `nt > 1` fields goes
+//! to `stem_0000.vtk`, `stem_0001.vtk`, … (see [`vtk_series_paths`]) plus a ParaView file
+//! series description `path.series` (JSON, `file-series-version` 1.0) giving each file's time
+//! in microseconds. ParaView also groups the numbered files by itself.
+//!
+//! [`Status`]: crate::field::Status
+
+use super::{check, write_atomic, Written};
+use crate::error::{Error, Result};
+use crate::field::FieldSeries;
+use std::io::Write;
+use std::path::{Path, PathBuf};
+
+/// The files [`write_field_vtk`] writes for `nt` time steps to `path`: `path` itself for one
+/// step, else `stem_0000.ext`, `stem_0001.ext`, … (at least four digits, more when needed so
+/// that the names sort in time order).
+pub fn vtk_series_paths(path: &Path, nt: usize) -> Vec<PathBuf> {
+    if nt == 1 {
+        return vec![path.to_path_buf()];
+    }
+    let stem = path.file_stem().unwrap_or_default().to_string_lossy();
+    let ext = path
+        .extension()
+        .map(|e| format!(".{}", e.to_string_lossy()))
+        .unwrap_or_default();
+    let digits = nt.saturating_sub(1).to_string().len().max(4);
+    (0..nt)
+        .map(|i| path.with_file_name(format!("{stem}_{i:0digits$}{ext}")))
+        .collect()
+}
+
+/// Write `field` as legacy VTK, one binary file per time step (see the module
+/// documentation for the names), each through a temporary file.
+pub fn write_field_vtk(field: &FieldSeries, path: &Path) -> Result<()> {
+    check(field)?;
+    let nt = field.t_us.len();
+    if nt == 0 {
+        return Err(Error::parameter(
+            "field",
+            "a VTK file needs at least one time step",
+        ));
+    }
+    let w = Written::new(field);
+    let paths = vtk_series_paths(path, nt);
+    for (ti, file) in paths.iter().enumerate() {
+        write_atomic(file, |out| write_step(out, field, &w, ti))?;
+    }
+    if nt > 1 {
+        let mut series = path.as_os_str().to_os_string();
+        series.push(".series");
+        let series = PathBuf::from(series);
+        write_atomic(&series, |out| {
+            writeln!(
+                out,
+                "{{\n  \"file-series-version\" : \"1.0\",\n  \"files\" : ["
+            )?;
+            for (ti, (file, t)) in paths.iter().zip(&field.t_us).enumerate() {
+                let name = file.file_name().unwrap_or_default().to_string_lossy();
+                let comma = if ti + 1 < nt { "," } else { "" };
+                writeln!(
+                    out,
+                    "    {{ \"name\" : \"{}\", \"time\" : {t} }}{comma}",
+                    json_escape(&name)
+                )?;
+            }
+            writeln!(out, "  ]\n}}")
+        })?;
+    }
+    Ok(())
+}
+
+/// The legacy VTK file of time step `ti`.
+fn write_step(
+    out: &mut impl Write,
+    field: &FieldSeries,
+    w: &Written<'_>,
+    ti: usize,
+) -> std::io::Result<()> {
+    let (nx, ny) = (field.x.len(), field.y.len());
+    let order = |axis: &[f64]| -> Vec<usize> {
+        if axis.len() > 1 && axis[0] > axis[axis.len() - 1] {
+            (0..axis.len()).rev().collect()
+        } else {
+            (0..axis.len()).collect()
+        }
+    };
+    let (rows, cols) = (order(&w.y), order(&w.x));
+    let points = || {
+        rows.iter()
+            .flat_map(|&r| cols.iter().map(move |&c| field.index(ti, r, c)))
+    };
+    let axes = match &field.calibration {
+        None => "x right, y down (image); px, px/ms".to_string(),
+        Some(c) => format!(
+            "x right, y {}; mm, m/s; origin ({}, {}) px, {} mm/px",
+            if c.y_up { "up" } else { "down" },
+            c.origin_px[0],
+            c.origin_px[1],
+            c.mm_per_px
+        ),
+    };
+    let mut title = format!(
+        "ebiv vector field, t = {} us; {axes}; status 0 = valid",
+        field.t_us[ti]
+    );
+    title.truncate(255);
+    writeln!(out, "# vtk DataFile Version 3.0\n{title}\nBINARY")?;
+    writeln!(out, "DATASET RECTILINEAR_GRID\nDIMENSIONS {nx} {ny} 1")?;
+    let mut buf = Vec::new();
+    writeln!(out, "X_COORDINATES {nx} double")?;
+    buf.clear();
+    for &c in &cols {
+        buf.extend_from_slice(&w.x[c].to_be_bytes());
+    }
+    out.write_all(&buf)?;
+    writeln!(out, "\nY_COORDINATES {ny} double")?;
+    buf.clear();
+    for &r in &rows {
+        buf.extend_from_slice(&w.y[r].to_be_bytes());
+    }
+    out.write_all(&buf)?;
+    writeln!(out, "\nZ_COORDINATES 1 double")?;
+    out.write_all(&0f64.to_be_bytes())?;
+    writeln!(out, "\nPOINT_DATA {}", nx * ny)?;
+
+    writeln!(out, "VECTORS velocity float")?;
+    buf.clear();
+    for i in points() {
+        for c in [w.u[i], w.v[i], 0.0] {
+            buf.extend_from_slice(&c.to_be_bytes());
+        }
+    }
+    out.write_all(&buf)?;
+    writeln!(
+        out,
+        "\nSCALARS status unsigned_char 1\nLOOKUP_TABLE default"
+    )?;
+    buf.clear();
+    buf.extend(points().map(|i| field.status[i].0));
+    out.write_all(&buf)?;
+    // Further arrays as field data, which every legacy reader loads (only the first
+    // SCALARS is read unless the reader is told to read all).
+    writeln!(out, "\nFIELD FieldData 3")?;
+    let n = nx * ny;
+    for (k, (name, data)) in [("peak", &field.peak), ("peak_ratio", &field.peak_ratio)]
+        .into_iter()
+        .enumerate()
+    {
+        if k > 0 {
+            writeln!(out)?;
+        }
+        writeln!(out, "{name} 1 {n} float")?;
+        buf.clear();
+        for i in points() {
+            buf.extend_from_slice(&data[i].to_be_bytes());
+        }
+        out.write_all(&buf)?;
+    }
+    writeln!(out, "\nevent_count 1 {n} unsigned_int")?;
+    buf.clear();
+    for i in points() {
+        buf.extend_from_slice(&field.event_count[i].to_be_bytes());
+    }
+    out.write_all(&buf)?;
+    writeln!(out)
+}
+
+/// `s` as the inside of a JSON string.
+fn json_escape(s: &str) -> String {
+    let mut out = String::with_capacity(s.len());
+    for c in s.chars() {
+        match c {
+            '"' => out.push_str("\\\""),
+            '\\' => out.push_str("\\\\"),
+            c if (c as u32) < 0x20 => out.push_str(&format!("\\u{:04x}", c as u32)),
+            c => out.push(c),
+        }
+    }
+    out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn series_names_are_numbered_and_sort_in_time_order() {
+        let p = Path::new("/tmp/out/field.vtk");
+        assert_eq!(vtk_series_paths(p, 1), vec![p.to_path_buf()]);
+        let two = vtk_series_paths(p, 2);
+        assert_eq!(two[1], Path::new("/tmp/out/field_0001.vtk"));
+        let many = vtk_series_paths(p, 12_345);
+        assert_eq!(many[12_344], Path::new("/tmp/out/field_12344.vtk"));
+        assert_eq!(many[7], Path::new("/tmp/out/field_00007.vtk"));
+        assert_eq!(json_escape("a\"b\\\n"), "a\\\"b\\\\\\u000a");
+    }
+
+    #[test]
+    fn empty_series_is_an_error() {
+        let f = FieldSeries::new(vec![0.0], vec![0.0], vec![]);
+        let dir = tempfile::tempdir().unwrap();
+        assert!(write_field_vtk(&f, &dir.path().join("f.vtk")).is_err());
+    }
+
+    #[test]
+    fn header_is_legacy_binary_rectilinear() {
+        let f = FieldSeries::new(vec![0.0, 1.0], vec![5.0], vec![9]);
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("f.vtk");
+        write_field_vtk(&f, &path).unwrap();
+        let bytes = std::fs::read(&path).unwrap();
+        let text = String::from_utf8_lossy(&bytes);
+        assert!(text.starts_with("# vtk DataFile Version 3.0\nebiv vector field, t = 9 us;"));
+        assert!(text.contains("\nBINARY\nDATASET RECTILINEAR_GRID\nDIMENSIONS 2 1 1\n"));
+        assert!(text.contains("\nPOINT_DATA 2\nVECTORS velocity float\n"));
+        assert!(!dir.path().join("f.vtk.series").exists());
+    }
+}

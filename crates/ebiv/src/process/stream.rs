@@ -1,0 +1,252 @@
+//! A recording processed slab by slab: events are read in batches and only those of the
+//! slab in flight are kept, so memory does not grow with the recording's length.
+
+use super::{process_slab, ProcessParams};
+use crate::error::Result;
+use crate::estimate::Estimator;
+use crate::event::{EventBuffer, Geometry};
+use crate::field::{FieldSeries, VectorField};
+use crate::io::EventReader;
+use crate::volume::Slab;
+
+/// Anything that hands out events in batches, in (nearly) time order.
+pub trait BatchSource {
+    /// Fill `out` (cleared first) with the next batch; `false` at the end.
+    fn next_batch(&mut self, out: &mut EventBuffer) -> Result<bool>;
+}
+
+impl BatchSource for EventReader {
+    fn next_batch(&mut self, out: &mut EventBuffer) -> Result<bool> {
+        self.read_batch(out)
+    }
+}
+
+/// Events already in memory, handed out in batches (simulations, tests, benchmarks).
+pub struct MemorySource<'a> {
+    events: &'a EventBuffer,
+    next: usize,
+    batch: usize,
+}
+
+impl<'a> MemorySource<'a> {
+    /// Batches of up to 2¹⁶ events from `events`.
+    pub fn new(events: &'a EventBuffer) -> Self {
+        MemorySource {
+            events,
+            next: 0,
+            batch: 1 << 16,
+        }
+    }
+}
+
+impl BatchSource for MemorySource<'_> {
+    fn next_batch(&mut self, out: &mut EventBuffer) -> Result<bool> {
+        out.clear();
+        let end = (self.next + self.batch).min(self.events.len());
+        if self.next >= end {
+            return Ok(false);
+        }
+        let e = self.events;
+        out.t.extend_from_slice(&e.t[self.next..end]);
+        out.x.extend_from_slice(&e.x[self.next..end]);
+        out.y.extend_from_slice(&e.y[self.next..end]);
+        out.p.extend_from_slice(&e.p[self.next..end]);
+        self.next = end;
+        Ok(true)
+    }
+}
+
+/// Time range and pixel extent of a recording, from one pass over it.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct RecordingExtent {
+    /// Earliest event time, µs.
+    pub first_us: i64,
+    /// Latest event time, µs.
+    pub last_us: i64,
+    /// Largest column seen.
+    pub max_x: u16,
+    /// Largest row seen.
+    pub max_y: u16,
+    /// Events in the recording.
+    pub events: u64,
+}
+
+/// Read `source` to the end and return its extent, `None` if it holds no events.
+pub fn scan_extent(source: &mut impl BatchSource) -> Result<Option<RecordingExtent>> {
+    let mut batch = EventBuffer::new();
+    let mut extent: Option<RecordingExtent> = None;
+    while source.next_batch(&mut batch)? {
+        for i in 0..batch.len() {
+            let (t, x, y) = (batch.t[i], batch.x[i], batch.y[i]);
+            let e = extent.get_or_insert(RecordingExtent {
+                first_us: t,
+                last_us: t,
+                max_x: x,
+                max_y: y,
+                events: 0,
+            });
+            e.first_us = e.first_us.min(t);
+            e.last_us = e.last_us.max(t);
+            e.max_x = e.max_x.max(x);
+            e.max_y = e.max_y.max(y);
+            e.events += 1;
+        }
+    }
+    Ok(extent)
+}
+
+/// What a run did, for the final summary line.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct RunSummary {
+    /// Fields computed.
+    pub fields: usize,
+    /// Vectors in all fields.
+    pub vectors: usize,
+    /// Valid vectors (status 0) in all fields.
+    pub valid: usize,
+    /// Events read from the source.
+    pub events_read: u64,
+    /// Vectors flagged by validation, per test, summed over fields.
+    pub flagged: usize,
+}
+
+/// What the caller sees after each field: for progress bars and figures.
+pub struct FieldDone<'a> {
+    /// Fields done so far, including this one.
+    pub done: usize,
+    /// Fields in the run.
+    pub total: usize,
+    /// This field's centre time, µs.
+    pub t0_us: i64,
+    /// The field (last pass, validated).
+    pub field: &'a VectorField,
+    /// The events in memory: at least those of this field's slab, in file order.
+    pub events: &'a EventBuffer,
+}
+
+/// Process `source` at the field times `times_us` (sorted ascending, duplicates dropped):
+/// the slab of each time is built from the events read so far, then evaluated by
+/// [`process_slab`]. `on_field` is called after every field.
+pub fn process_recording<E: Estimator, S: BatchSource>(
+    source: &mut S,
+    geometry: Geometry,
+    estimator: &E,
+    params: &ProcessParams,
+    times_us: &[i64],
+    on_field: &mut dyn FnMut(&FieldDone),
+) -> Result<(FieldSeries, RunSummary)> {
+    let grids = params.grids(geometry)?;
+    let last = grids.last().expect("grids checked non-empty");
+    let mut series = FieldSeries::on_grid(last.x_centres(), last.y_centres());
+    series.attributes = run_attributes(estimator, params);
+    let mut times = times_us.to_vec();
+    times.sort_unstable();
+    times.dedup();
+    let (before, after) = estimator.time_extent_us();
+    let mut window = EventBuffer::new();
+    let mut batch = EventBuffer::new();
+    let mut exhausted = false;
+    let mut summary = RunSummary::default();
+    for (k, &t0) in times.iter().enumerate() {
+        let (start, end) = (t0 - before, t0 + after);
+        while !exhausted && window.t.last().is_none_or(|&t| t < end) {
+            if source.next_batch(&mut batch)? {
+                summary.events_read += batch.len() as u64;
+                window.extend_from(&batch);
+            } else {
+                exhausted = true;
+            }
+        }
+        drop_before(&mut window, start);
+        let slab = Slab::build(
+            &window.t,
+            &window.x,
+            &window.y,
+            &window.p,
+            geometry,
+            start,
+            end,
+            params.polarity,
+            params.tile_size(),
+        );
+        let result = process_slab(estimator, &slab, t0, &grids, params);
+        summary.fields += 1;
+        summary.vectors += result.field.len();
+        summary.valid += result.field.status.iter().filter(|s| s.is_valid()).count();
+        summary.flagged += result.validation.valid_before - result.validation.valid_after;
+        series.push(t0, &result.field)?;
+        on_field(&FieldDone {
+            done: k + 1,
+            total: times.len(),
+            t0_us: t0,
+            field: &result.field,
+            events: &window,
+        });
+    }
+    Ok((series, summary))
+}
+
+/// Remove the leading events earlier than `start` (the buffer is in nearly time order).
+fn drop_before(events: &mut EventBuffer, start: i64) {
+    let keep_from = events
+        .t
+        .iter()
+        .position(|&t| t >= start)
+        .unwrap_or(events.len());
+    if keep_from > 0 {
+        events.t.drain(..keep_from);
+        events.x.drain(..keep_from);
+        events.y.drain(..keep_from);
+        events.p.drain(..keep_from);
+    }
+}
+
+/// The processing parameters as output attributes.
+fn run_attributes<E: Estimator>(estimator: &E, params: &ProcessParams) -> Vec<(String, String)> {
+    let mut a = vec![
+        (
+            "software".to_string(),
+            format!("ebiv {}", env!("CARGO_PKG_VERSION")),
+        ),
+        ("method".to_string(), estimator.name().to_string()),
+        (
+            "polarity".to_string(),
+            format!("{:?}", params.polarity).to_lowercase(),
+        ),
+        (
+            "passes".to_string(),
+            params
+                .passes
+                .iter()
+                .map(|p| {
+                    format!(
+                        "{}x{} px step {}x{}",
+                        p.window[0], p.window[1], p.step[0], p.step[1]
+                    )
+                })
+                .collect::<Vec<_>>()
+                .join(", "),
+        ),
+        (
+            "field_time".to_string(),
+            "centre of the time slab (microseconds)".to_string(),
+        ),
+        (
+            "position".to_string(),
+            "window centroid, image coordinates: x right, y down, pixel centres at integers"
+                .to_string(),
+        ),
+        ("status_flags".to_string(), crate::field::Status::legend()),
+        ("validation".to_string(), format!("{:?}", params.validation)),
+        (
+            "predictor_smoothing_nodes".to_string(),
+            params.predictor_smoothing.to_string(),
+        ),
+        (
+            "replace_final".to_string(),
+            params.replace_final.to_string(),
+        ),
+    ];
+    a.extend(estimator.parameters());
+    a
+}
