@@ -90,18 +90,27 @@ impl Voxeliser {
         out.start.clear();
         out.events = 0;
         self.slice.clear();
+        self.slice.reserve(events.len());
         self.counts.clear();
         self.counts.resize(n_slices + 1, 0);
-        for i in 0..events.len() {
-            // Nearest pixel: identity for raw events, rounding for deformed ones.
-            let (x, y) = ((events.x[i] + 0.5).floor(), (events.y[i] + 0.5).floor());
-            let t = events.t[i] as f64;
-            let inside = x >= 0.0 && y >= 0.0 && (x as usize) < self.w && (y as usize) < self.h;
-            if !inside || !(0.0..slab_us as f64).contains(&t) {
+        let (w, h) = (self.w, self.h);
+        let slab = slab_us as f64;
+        let last = n_slices - 1;
+        let (xs, ys, ts) = (&events.x, &events.y, &events.t);
+        let n = ts.len().min(xs.len()).min(ys.len());
+        for i in 0..n {
+            // Nearest pixel: identity for raw events, rounding for deformed ones. For
+            // `xf ≥ 0` truncation is the floor; NaN fails the comparison.
+            let (xf, yf) = (xs[i] + 0.5, ys[i] + 0.5);
+            let t = ts[i] as f64;
+            let inside = xf >= 0.0 && yf >= 0.0 && (xf as usize) < w && (yf as usize) < h;
+            if !inside || !(0.0..slab).contains(&t) {
                 self.slice.push(u32::MAX);
                 continue;
             }
-            let z = ((t as i64 * slices as i64) / slab_us).min(slices as i64 - 1) as usize;
+            // ⌊t·N / T⌋ in f64 is exact: the dividend is an integer below 2⁵³ and
+            // T·N < 2⁵³, so a non-integral quotient never rounds up to the next integer.
+            let z = (((t as i64 * slices as i64) as f64 / slab) as usize).min(last);
             self.slice.push(z as u32);
             self.counts[z + 1] += 1;
         }
@@ -111,30 +120,31 @@ impl Voxeliser {
         out.events = self.counts[n_slices];
         self.order.clear();
         self.order.resize(out.events, 0);
-        let mut fill = 0usize;
-        // Counting sort by slice: `counts[z]` advances as slice z fills.
+        // Counting sort by slice: `counts[z]` advances as slice z fills; the sorted entries
+        // are the pixel coordinates packed as `y << 16 | x`.
         for (i, &z) in self.slice.iter().enumerate() {
             if z != u32::MAX {
                 let at = &mut self.counts[z as usize];
-                self.order[*at] = i as u32;
+                let (x, y) = ((xs[i] + 0.5) as u32, (ys[i] + 0.5) as u32);
+                self.order[*at] = (y << 16) | x;
                 *at += 1;
-                fill += 1;
             }
         }
-        debug_assert_eq!(fill, out.events);
+        out.x.reserve(out.events);
+        out.y.reserve(out.events);
+        out.v.reserve(out.events);
+        out.start.reserve(n_slices + 1);
         let mut first = 0usize;
         out.start.push(0);
         for z in 0..n_slices {
             let end = self.counts[z];
             self.next_generation();
-            for &i in &self.order[first..end] {
-                let (x, y) = (
-                    (events.x[i as usize] + 0.5) as usize,
-                    (events.y[i as usize] + 0.5) as usize,
-                );
-                let pixel = y * self.w + x;
-                if self.stamp[pixel] != self.generation {
-                    self.stamp[pixel] = self.generation;
+            let generation = self.generation;
+            for &xy in &self.order[first..end] {
+                let (x, y) = ((xy & 0xffff) as usize, (xy >> 16) as usize);
+                let pixel = y * w + x;
+                if self.stamp[pixel] != generation {
+                    self.stamp[pixel] = generation;
                     self.slot[pixel] = out.v.len() as u32;
                     out.x.push(x as u16);
                     out.y.push(y as u16);
