@@ -44,24 +44,7 @@ fn process<E: Estimator>(
     passes: &[(u32, u32)],
     times: &[i64],
 ) -> FieldSeries {
-    let params = ProcessParams {
-        passes: passes
-            .iter()
-            .map(|&(w, s)| GridSpec::square(w, s))
-            .collect(),
-        ..ProcessParams::default()
-    };
-    let mut source = MemorySource::new(events);
-    process_recording(
-        &mut source,
-        sim.geometry,
-        estimator,
-        &params,
-        times,
-        &mut |_| {},
-    )
-    .unwrap()
-    .0
+    process_with(estimator, sim, events, passes, times, true)
 }
 
 fn errors(series: &FieldSeries, sim: &Simulation) -> ErrorStats {
@@ -114,13 +97,13 @@ fn turntable_event_deformation_removes_gradient_error() {
     for (name, deformed, plain) in [
         (
             "corrsum",
-            process_with(&corrsum(), &sim, &events, &passes, true),
-            process_with(&corrsum(), &sim, &events, &passes, false),
+            process_with(&corrsum(), &sim, &events, &passes, &FIELD_TIMES, true),
+            process_with(&corrsum(), &sim, &events, &passes, &FIELD_TIMES, false),
         ),
         (
             "motion",
-            process_with(&motion(), &sim, &events, &passes, true),
-            process_with(&motion(), &sim, &events, &passes, false),
+            process_with(&motion(), &sim, &events, &passes, &FIELD_TIMES, true),
+            process_with(&motion(), &sim, &events, &passes, &FIELD_TIMES, false),
         ),
     ] {
         let (d, p) = (errors(&deformed, &sim), errors(&plain, &sim));
@@ -136,6 +119,7 @@ fn process_with<E: Estimator>(
     sim: &Simulation,
     events: &EventBuffer,
     passes: &[(u32, u32)],
+    times: &[i64],
     deform: bool,
 ) -> FieldSeries {
     let params = ProcessParams {
@@ -152,7 +136,7 @@ fn process_with<E: Estimator>(
         sim.geometry,
         estimator,
         &params,
-        &FIELD_TIMES,
+        times,
         &mut |_| {},
     )
     .unwrap()

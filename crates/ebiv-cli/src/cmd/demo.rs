@@ -2,7 +2,7 @@
 //! Lamb–Oseen vortex in a uniform stream through the gen4 sensor model, write and re-read
 //! the recording, measure its velocity field with both estimators, compare with the truth.
 
-use super::process_run::describe_passes;
+use super::process_run::{describe_passes, series_histograms};
 use crate::progress::count_bar;
 use clap::Args;
 use ebiv::assess::{field_errors, ErrorStats};
@@ -13,10 +13,7 @@ use ebiv::field::FieldSeries;
 use ebiv::grid::GridSpec;
 use ebiv::io::{write, Format, ReadOptions};
 use ebiv::process::{process_recording, MemorySource, ProcessParams};
-use ebiv::render::{
-    save_png, time_coded_image, upscale, vector_map, velocity_histograms, HistogramStyle,
-    VectorMapStyle,
-};
+use ebiv::render::{save_png, time_coded_image, upscale, vector_map, VectorMapStyle};
 use ebiv::sim::simulation::Simulation;
 use ebiv::{EventBuffer, PolaritySelection};
 use std::path::{Path, PathBuf};
@@ -211,18 +208,6 @@ fn write_figures(
         &style,
     );
     save_png(&map, &dir.join(format!("vectors_{name}.png")))?;
-    let valid: Vec<usize> = (0..series.u.len())
-        .filter(|&i| series.status[i].is_valid())
-        .collect();
-    let u: Vec<f32> = valid.iter().map(|&i| series.u[i]).collect();
-    let v: Vec<f32> = valid.iter().map(|&i| series.v[i]).collect();
-    let hist = velocity_histograms(
-        &u,
-        &v,
-        &HistogramStyle {
-            title: Some(format!("{name}: {} valid vectors", u.len())),
-            ..HistogramStyle::default()
-        },
-    );
+    let hist = series_histograms(series, &format!("{name}: "), None);
     save_png(&hist, &dir.join(format!("histograms_{name}.png")))
 }

@@ -13,8 +13,8 @@ use ebiv::grid::GridSpec;
 use ebiv::io::ReadOptions;
 use ebiv::process::{process_recording, scan_extent, FieldDone, ProcessParams, TimeSteps};
 use ebiv::render::{
-    save_png, time_coded_image, vector_map, velocity_histograms, write_gif, HistogramStyle,
-    VectorMapStyle,
+    save_png, time_coded_image, valid_components, vector_map, velocity_histograms, write_gif,
+    HistogramStyle, VectorMapStyle,
 };
 use ebiv::{Error, Geometry, PolaritySelection};
 use std::path::PathBuf;
@@ -239,6 +239,7 @@ fn execute<E: Estimator>(s: &Settings, options: &ReadOptions, estimator: &E) -> 
         }
     };
     let times = steps.times(1_000_000)?;
+    s.params.grids(g)?; // report a window that does not fit before anything else
     println!(
         "{}: {} field(s) from {} to {} µs, {} on {g}, passes {}",
         s.input.display(),
@@ -321,6 +322,25 @@ fn field_figure(d: &FieldDone, g: Geometry, s: &Settings, extent: (i64, i64)) ->
     vector_map(d.field, g, Some(&events.image), &style)
 }
 
+/// Histograms of the valid u and v of a series (with the fractional displacement over
+/// `tau_ms`, when given, to expose peak locking).
+pub fn series_histograms(
+    series: &FieldSeries,
+    title_prefix: &str,
+    tau_ms: Option<f64>,
+) -> image::RgbImage {
+    let (u, v) = valid_components(&series.u, &series.v, &series.status);
+    velocity_histograms(
+        &u,
+        &v,
+        &HistogramStyle {
+            displacement_ms: tau_ms,
+            title: Some(format!("{title_prefix}{} valid vectors", u.len())),
+            ..HistogramStyle::default()
+        },
+    )
+}
+
 /// Histograms of u and v and the animation, after the run.
 fn write_series_figures(
     series: &FieldSeries,
@@ -332,20 +352,7 @@ fn write_series_figures(
         Method::CorrSum => Some(s.corrsum.tau_us as f64 / 1000.0),
         Method::Motion => None,
     };
-    let valid: Vec<usize> = (0..series.u.len())
-        .filter(|&i| series.status[i].is_valid())
-        .collect();
-    let u: Vec<f32> = valid.iter().map(|&i| series.u[i]).collect();
-    let v: Vec<f32> = valid.iter().map(|&i| series.v[i]).collect();
-    let hist = velocity_histograms(
-        &u,
-        &v,
-        &HistogramStyle {
-            displacement_ms: tau_ms,
-            title: Some(format!("{} valid vectors", u.len())),
-            ..HistogramStyle::default()
-        },
-    );
+    let hist = series_histograms(series, "", tau_ms);
     save_png(&hist, &dir.join("histograms.png"))?;
     let mut written = format!("histograms.png and {} vector map(s)", series.t_us.len());
     if frames.len() > 1 {

@@ -27,13 +27,13 @@ mod voxels;
 
 use serde::{Deserialize, Serialize};
 
-use super::peak::{find_peak, SubPixelFit};
+use super::peak::SubPixelFit;
 use super::{gather_predicted, Estimator, Prediction, WindowEstimate};
 use crate::error::{Error, Result};
 use crate::field::Status;
 use crate::grid::Window;
 use crate::volume::{Slab, WindowEvents};
-use fit::refine_tilted;
+use fit::{find_peak_fast, refine_tilted};
 use fourier::Fourier;
 use voxels::{slice_statistics, PlaneShape, SliceStats, Voxeliser, Voxels};
 
@@ -277,6 +277,7 @@ impl SumOfCorrelation {
                 shape,
                 &mut scratch.plane,
                 &mut scratch.diff,
+                &mut scratch.sorted,
             );
         }
         Ok(events)
@@ -353,7 +354,8 @@ impl Estimator for SumOfCorrelation {
         };
         let shape = scratch.shape;
         let (pw, ph) = (shape.plane_width(), shape.plane_height());
-        let Some(peak) = find_peak(&scratch.plane, pw, ph, self.params.fit, EXCLUSION_PX) else {
+        let Some(peak) = find_peak_fast(&scratch.plane, pw, ph, self.params.fit, EXCLUSION_PX)
+        else {
             return WindowEstimate::invalid(Status::NO_PEAK, events);
         };
         let mut result = WindowEstimate::invalid(Status::NO_PEAK, events);
@@ -420,6 +422,7 @@ pub struct CorrSumScratch {
     stats: Vec<SliceStats>,
     plane: Vec<f64>,
     diff: Vec<f64>,
+    sorted: Vec<(u16, u16, f64)>,
     fourier: Option<Fourier>,
 }
 
@@ -442,6 +445,7 @@ impl CorrSumScratch {
             stats: Vec::with_capacity(slices as usize),
             plane: vec![0.0; shape.plane_width() * shape.plane_height()],
             diff: vec![0.0; (shape.plane_width() + 1) * (shape.plane_height() + 1)],
+            sorted: Vec::new(),
             fourier: None,
         }
     }

@@ -117,7 +117,15 @@ fn direct_fft_and_definition_agree_on_random_inputs() {
         let (pw, ph) = (shape.plane_width(), shape.plane_height());
         let mut direct = vec![0.0; pw * ph];
         let mut diff = vec![0.0; (pw + 1) * (ph + 1)];
-        direct::correlate(&a, &b, &stats, shape, &mut direct, &mut diff);
+        direct::correlate(
+            &a,
+            &b,
+            &stats,
+            shape,
+            &mut direct,
+            &mut diff,
+            &mut Vec::new(),
+        );
         let mut fft = vec![0.0; pw * ph];
         Fourier::new(shape).correlate(&a, &b, &stats, &mut fft);
         let dense = dense_plane(&a, &b, &stats, shape);
@@ -154,7 +162,15 @@ fn zero_lag_is_the_mean_pearson_coefficient() {
     slice_statistics(&a, &b, shape, &mut stats);
     let mut plane = vec![0.0; 13 * 11];
     let mut diff = vec![0.0; 14 * 12];
-    direct::correlate(&a, &b, &stats, shape, &mut plane, &mut diff);
+    direct::correlate(
+        &a,
+        &b,
+        &stats,
+        shape,
+        &mut plane,
+        &mut diff,
+        &mut Vec::new(),
+    );
     assert!(
         (plane[5 * 13 + 6] - 1.0).abs() < 1e-12,
         "{}",
@@ -270,4 +286,27 @@ fn tilted_peaks_with_a_negative_neighbour_are_fitted_in_two_dimensions() {
         axis_wise > 0.1,
         "the axis-wise fall-back is biased here: {peak:?}"
     );
+}
+
+#[test]
+fn fast_peak_search_matches_find_peak() {
+    let mut rng = Rng(7);
+    for case in 0..400 {
+        let (w, h) = (1 + case % 13, 1 + (case / 13) % 11);
+        let plane: Vec<f64> = (0..w * h)
+            .map(|_| match rng.next() % 50 {
+                0 => f64::NAN,
+                1 => f64::INFINITY,
+                2 => f64::NEG_INFINITY,
+                k => (k % 9) as f64 - 3.0 + if case % 2 == 0 { 0.0 } else { 0.1 * k as f64 },
+            })
+            .collect();
+        for fit in [SubPixelFit::Gaussian2d, SubPixelFit::Gaussian3] {
+            for exclusion in [0, 1, 2] {
+                let slow = find_peak(&plane, w, h, fit, exclusion);
+                let fast = fit::find_peak_fast(&plane, w, h, fit, exclusion);
+                assert_eq!(format!("{slow:?}"), format!("{fast:?}"), "case {case}");
+            }
+        }
+    }
 }

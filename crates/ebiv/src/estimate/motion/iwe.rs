@@ -122,12 +122,48 @@ pub(crate) struct Events {
     pub t: Vec<f32>,
 }
 
-/// Working memory of one evaluation: the canvas (all zero between evaluations) and the
-/// footprint origins.
+/// Working memory of one evaluation: the canvas (all zero between evaluations), the
+/// footprint origins, and the events in canvas units for the canvas and table they were
+/// prepared for (`x_c = (x − origin_x) / bin + shift`, `t_c = t / bin`), so a candidate
+/// costs one multiply-add per coordinate and event.
 #[derive(Debug, Clone, Default)]
 pub(crate) struct Workspace {
     pub canvas: Vec<f32>,
     pub footprint: Vec<u32>,
+    prepared: Option<(Canvas, f32)>,
+    cx: Vec<f32>,
+    cy: Vec<f32>,
+    ct: Vec<f32>,
+}
+
+impl Workspace {
+    /// Forget the prepared events: must be called whenever the events change.
+    pub fn forget_events(&mut self) {
+        self.prepared = None;
+    }
+
+    /// Prepare `events` for `canvas` and `table` unless already done.
+    fn prepare(&mut self, events: &Events, canvas: &Canvas, table: &SplatTable) {
+        let key = (*canvas, table.shift);
+        if self.prepared == Some(key) && self.ct.len() == events.t.len() {
+            return;
+        }
+        let (ox, oy, ib, shift) = (
+            canvas.origin_x,
+            canvas.origin_y,
+            canvas.inv_bin,
+            table.shift,
+        );
+        self.cx.clear();
+        self.cy.clear();
+        self.ct.clear();
+        self.cx
+            .extend(events.x.iter().map(|&x| (x - ox) * ib + shift));
+        self.cy
+            .extend(events.y.iter().map(|&y| (y - oy) * ib + shift));
+        self.ct.extend(events.t.iter().map(|&t| t * ib));
+        self.prepared = Some(key);
+    }
 }
 
 /// Objective of the IWE of `events` warped by `(u, v)` px/ms on `canvas`.
@@ -142,6 +178,7 @@ pub(crate) fn evaluate(
     if work.canvas.len() < canvas.cells() {
         work.canvas.resize(canvas.cells(), 0.0);
     }
+    work.prepare(events, canvas, table);
     match table.taps {
         2 => objective_of::<2>(events, velocity, canvas, table, objective, work),
         3 => objective_of::<3>(events, velocity, canvas, table, objective, work),
@@ -200,31 +237,28 @@ fn scatter<const K: usize>(
     table: &SplatTable,
     work: &mut Workspace,
 ) -> f64 {
+    work.prepare(events, canvas, table);
     let (u, v) = (u as f32, v as f32);
     let stride = canvas.width;
-    let (ox, oy, ib, shift) = (
-        canvas.origin_x,
-        canvas.origin_y,
-        canvas.inv_bin,
-        table.shift,
-    );
     let first = table.first as isize;
     let levels = LEVELS as f32;
     let grid = &mut work.canvas[..canvas.cells()];
-    work.footprint.clear();
+    let n = work.ct.len();
+    work.footprint.resize(n, 0);
     let mut squares = 0f64;
-    for ((&x, &y), &t) in events.x.iter().zip(&events.y).zip(&events.t) {
+    let events = work.cx.iter().zip(&work.cy).zip(&work.ct);
+    for (((&x, &y), &t), slot) in events.zip(work.footprint.iter_mut()) {
         // Canvas coordinates are positive by construction: truncation is the floor.
-        let xc = (x - u * t - ox) * ib + shift;
-        let yc = (y - v * t - oy) * ib + shift;
-        let (bx, by) = (xc as usize, yc as usize);
-        let qx = ((xc - bx as f32) * levels + 0.5) as usize;
-        let qy = ((yc - by as f32) * levels + 0.5) as usize;
+        let xc = x - u * t;
+        let yc = y - v * t;
+        let (bx, by) = (xc as u32 as usize, yc as u32 as usize);
+        let qx = ((xc - bx as f32) * levels + 0.5) as u32 as usize;
+        let qy = ((yc - by as f32) * levels + 0.5) as u32 as usize;
         let origin = (by as isize + first) as usize * stride + (bx as isize + first) as usize;
-        work.footprint.push(origin as u32);
-        let mut gain = 0f32;
+        *slot = origin as u32;
         let wx: &[f32; K] = table.weights[qx * K..qx * K + K].try_into().unwrap();
         let wy: &[f32; K] = table.weights[qy * K..qy * K + K].try_into().unwrap();
+        let mut gain = 0f32;
         for (a, &wa) in wy.iter().enumerate() {
             let row: &mut [f32; K] = (&mut grid[origin + a * stride..origin + a * stride + K])
                 .try_into()

@@ -24,7 +24,7 @@ use crate::estimate::peak::{self, SubPixelFit};
 use crate::field::Status;
 
 /// Largest half-width, in steps, of the grid scanned at the top of the pyramid.
-const TOP_HALF: i64 = 3;
+const TOP_HALF: i64 = 2;
 /// Re-centrings allowed per level before moving on.
 const MAX_CLIMB: usize = 6;
 
@@ -62,6 +62,7 @@ impl Search<'_> {
     /// Run the search. `None` if the canvas would be unreasonably large (absurd predictor).
     pub fn run(&self, s: &mut SearchScratch) -> Option<Outcome> {
         let p = self.params;
+        s.work.forget_events();
         let t_max = self.events.t.iter().fold(0f32, |m, t| m.max(t.abs())) as f64;
         // Refinement halvings: the last step is the smallest coarse_step / 2^m ≥ final_step.
         let mut refinements = 0u32;
