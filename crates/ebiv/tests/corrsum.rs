@@ -280,7 +280,7 @@ fn no_bias_toward_zero_displacement() {
 /// Kernel timing, not an assertion: `cargo test --release --test corrsum -- --ignored
 /// --nocapture timing`.
 #[test]
-#[ignore]
+#[ignore = "timing printout, not a pass/fail test (timed assertions are not allowed): run with --release -- --ignored --nocapture"]
 fn timing() {
     for density in [0.001, 0.002, 0.004, 0.008, 0.016, 0.032, 0.064] {
         let est = estimator(CorrKernel::Direct);

@@ -288,7 +288,7 @@ fn parameters_deserialize_and_validate() {
 
 /// Time per window at ≈ 250 events (not a pass/fail test; run with `--ignored`).
 #[test]
-#[ignore]
+#[ignore = "timing printout, not a pass/fail test (timed assertions are not allowed): run with --release -- --ignored --nocapture"]
 fn time_per_window() {
     let est = default_estimator();
     let slabs: Vec<(Slab, [f64; 2])> = (0..20)

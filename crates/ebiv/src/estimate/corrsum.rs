@@ -27,13 +27,13 @@ mod voxels;
 
 use serde::{Deserialize, Serialize};
 
-use super::peak::SubPixelFit;
+use super::peak::{find_peak, SubPixelFit};
 use super::{gather_predicted, Estimator, Prediction, WindowEstimate};
 use crate::error::{Error, Result};
 use crate::field::Status;
 use crate::grid::Window;
 use crate::volume::{Slab, WindowEvents};
-use fit::{find_peak_fast, refine_tilted};
+use fit::refine_tilted;
 use fourier::Fourier;
 use voxels::{slice_statistics, PlaneShape, SliceStats, Voxeliser, Voxels};
 
@@ -354,8 +354,7 @@ impl Estimator for SumOfCorrelation {
         };
         let shape = scratch.shape;
         let (pw, ph) = (shape.plane_width(), shape.plane_height());
-        let Some(peak) = find_peak_fast(&scratch.plane, pw, ph, self.params.fit, EXCLUSION_PX)
-        else {
+        let Some(peak) = find_peak(&scratch.plane, pw, ph, self.params.fit, EXCLUSION_PX) else {
             return WindowEstimate::invalid(Status::NO_PEAK, events);
         };
         let mut result = WindowEstimate::invalid(Status::NO_PEAK, events);

@@ -186,8 +186,57 @@ pub fn find_peak(
     })
 }
 
-/// Highest local maximum (≥ its 8 neighbours) farther than `exclusion` from `(row, col)`.
+/// Highest finite local maximum (≥ its 8 neighbours, none NaN) farther than `exclusion`
+/// (Chebyshev) from `(row, col)`, NaN if none. Skips the excluded block by ranges; equal
+/// to the plain scan of every cell ([`second_peak_reference`], tested).
 fn second_peak(
+    map: &[f64],
+    width: usize,
+    height: usize,
+    row: usize,
+    col: usize,
+    exclusion: usize,
+) -> f64 {
+    let mut second = f64::NEG_INFINITY;
+    let mut found = false;
+    let (ex0, ex1) = (
+        col.saturating_sub(exclusion),
+        (col + exclusion + 1).min(width),
+    );
+    for r in 0..height {
+        let line = &map[r * width..(r + 1) * width];
+        let excluded = r.abs_diff(row) <= exclusion;
+        let (first, rest) = if excluded {
+            ((0, ex0), (ex1, width))
+        } else {
+            ((0, width), (width, width))
+        };
+        for (c0, c1) in [first, rest] {
+            for (c, &v) in line.iter().enumerate().take(c1).skip(c0) {
+                // Only finite values above the current second peak (NaN fails `>`).
+                if v.partial_cmp(&second) != Some(std::cmp::Ordering::Greater) || !v.is_finite() {
+                    continue;
+                }
+                let is_local_max = (r.saturating_sub(1)..(r + 2).min(height)).all(|rr| {
+                    (c.saturating_sub(1)..(c + 2).min(width)).all(|cc| map[rr * width + cc] <= v)
+                });
+                if is_local_max {
+                    second = v;
+                    found = true;
+                }
+            }
+        }
+    }
+    if found {
+        second
+    } else {
+        f64::NAN
+    }
+}
+
+#[cfg(test)]
+/// The plain scan [`second_peak`] must equal: every cell tested.
+fn second_peak_reference(
     map: &[f64],
     width: usize,
     height: usize,
@@ -282,5 +331,34 @@ mod tests {
         assert!((p.ratio() - 1.0 / (0.25 + m[6 * 8 + 6] - 0.25)).abs() < 1e-9);
         assert!(find_peak(&[], 0, 0, SubPixelFit::Gaussian3, 1).is_none());
         assert!(find_peak(&[f64::NAN; 4], 2, 2, SubPixelFit::Gaussian3, 1).is_none());
+    }
+
+    #[test]
+    fn second_peak_equals_the_plain_scan() {
+        let mut state = 7u64;
+        let mut next = move || {
+            state ^= state << 13;
+            state ^= state >> 7;
+            state ^= state << 17;
+            state
+        };
+        for case in 0..400usize {
+            let (w, h) = (1 + case % 13, 1 + (case / 13) % 11);
+            let plane: Vec<f64> = (0..w * h)
+                .map(|_| match next() % 50 {
+                    0 => f64::NAN,
+                    1 => f64::INFINITY,
+                    2 => f64::NEG_INFINITY,
+                    k => (k % 9) as f64 - 3.0 + if case % 2 == 0 { 0.0 } else { 0.1 * k as f64 },
+                })
+                .collect();
+            for (row, col) in [(0, 0), (h / 2, w / 2), (h - 1, w - 1)] {
+                for exclusion in [0, 1, 2] {
+                    let fast = second_peak(&plane, w, h, row, col, exclusion);
+                    let slow = second_peak_reference(&plane, w, h, row, col, exclusion);
+                    assert_eq!(format!("{fast:?}"), format!("{slow:?}"), "case {case}");
+                }
+            }
+        }
     }
 }

@@ -287,26 +287,3 @@ fn tilted_peaks_with_a_negative_neighbour_are_fitted_in_two_dimensions() {
         "the axis-wise fall-back is biased here: {peak:?}"
     );
 }
-
-#[test]
-fn fast_peak_search_matches_find_peak() {
-    let mut rng = Rng(7);
-    for case in 0..400 {
-        let (w, h) = (1 + case % 13, 1 + (case / 13) % 11);
-        let plane: Vec<f64> = (0..w * h)
-            .map(|_| match rng.next() % 50 {
-                0 => f64::NAN,
-                1 => f64::INFINITY,
-                2 => f64::NEG_INFINITY,
-                k => (k % 9) as f64 - 3.0 + if case % 2 == 0 { 0.0 } else { 0.1 * k as f64 },
-            })
-            .collect();
-        for fit in [SubPixelFit::Gaussian2d, SubPixelFit::Gaussian3] {
-            for exclusion in [0, 1, 2] {
-                let slow = find_peak(&plane, w, h, fit, exclusion);
-                let fast = fit::find_peak_fast(&plane, w, h, fit, exclusion);
-                assert_eq!(format!("{slow:?}"), format!("{fast:?}"), "case {case}");
-            }
-        }
-    }
-}

@@ -408,7 +408,7 @@ mod tests {
 mod timing {
     use super::*;
     #[test]
-    #[ignore]
+    #[ignore = "timing printout, not a pass/fail test (timed assertions are not allowed): run with --release -- --ignored --nocapture"]
     fn time_evaluate() {
         let n = 300;
         let ev = Events {
