@@ -262,6 +262,35 @@ fn bracket(axis: &[f64], p: f64) -> (usize, usize, f64) {
     (lo, hi, f)
 }
 
+/// What the `u`, `v` arrays of a [`FieldSeries`] hold.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum Quantity {
+    /// Velocity: px/ms in image coordinates, m/s when calibrated.
+    #[default]
+    Velocity,
+    /// Displacement between two images: px, mm when calibrated (PIV of an image pair, where
+    /// the time between the frames is not known).
+    Displacement,
+}
+
+impl Quantity {
+    /// Unit of `u`, `v` in image coordinates and after calibration.
+    pub fn units(self) -> (&'static str, &'static str) {
+        match self {
+            Quantity::Velocity => ("px/ms", "m/s"),
+            Quantity::Displacement => ("px", "mm"),
+        }
+    }
+
+    /// Plural noun for text: "velocities" or "displacements".
+    pub fn noun(self) -> &'static str {
+        match self {
+            Quantity::Velocity => "velocities",
+            Quantity::Displacement => "displacements",
+        }
+    }
+}
+
 /// A time series of 2-D vector fields on one regular grid.
 #[derive(Debug, Clone, PartialEq)]
 pub struct FieldSeries {
@@ -285,6 +314,9 @@ pub struct FieldSeries {
     pub event_count: Vec<u32>,
     /// Physical scaling applied by the writers, if any.
     pub calibration: Option<Calibration>,
+    /// What `u` and `v` hold: velocities (event estimators) or displacements (PIV of an
+    /// image pair).
+    pub quantity: Quantity,
     /// Descriptive attributes written into every output (source, parameters, software).
     pub attributes: Vec<(String, String)>,
 }
@@ -304,6 +336,7 @@ impl FieldSeries {
             peak_ratio: vec![f32::NAN; n],
             event_count: vec![0; n],
             calibration: None,
+            quantity: Quantity::Velocity,
             attributes: Vec::new(),
         }
     }

@@ -205,6 +205,7 @@ impl<'a> Written<'a> {
     /// The written view of `field`.
     pub fn new(field: &'a FieldSeries) -> Self {
         use std::borrow::Cow;
+        let (image_unit, physical_unit) = field.quantity.units();
         match &field.calibration {
             Some(c) => {
                 let p = Physical::new(field, c);
@@ -214,7 +215,7 @@ impl<'a> Written<'a> {
                     u: Cow::Owned(p.u),
                     v: Cow::Owned(p.v),
                     length_unit: "mm",
-                    velocity_unit: "m/s",
+                    velocity_unit: physical_unit,
                 }
             }
             None => Written {
@@ -223,7 +224,7 @@ impl<'a> Written<'a> {
                 u: Cow::Borrowed(&field.u),
                 v: Cow::Borrowed(&field.v),
                 length_unit: "px",
-                velocity_unit: "px/ms",
+                velocity_unit: image_unit,
             },
         }
     }
@@ -231,13 +232,16 @@ impl<'a> Written<'a> {
 
 /// One sentence stating the axis convention of what is written for `field`.
 pub(crate) fn axis_convention(field: &FieldSeries) -> String {
+    let (image_unit, physical_unit) = field.quantity.units();
+    let noun = field.quantity.noun();
     match &field.calibration {
-        None => "image coordinates: x to the right, y down, pixel centres at integers; \
-                 positions in px, velocities in px/ms"
-            .to_string(),
+        None => format!(
+            "image coordinates: x to the right, y down, pixel centres at integers; \
+             positions in px, {noun} in {image_unit}"
+        ),
         Some(c) => format!(
             "physical coordinates: x to the right, y {}, origin at image point ({}, {}) px, \
-             {} mm per px; positions in mm, velocities in m/s (v positive {})",
+             {} mm per px; positions in mm, {noun} in {physical_unit} (v positive {})",
             if c.y_up { "up" } else { "down" },
             c.origin_px[0],
             c.origin_px[1],

@@ -72,11 +72,14 @@ pub fn write_field_netcdf(field: &FieldSeries, path: &Path) -> Result<()> {
     ds.add_var_f32("peak_ratio", &grid).map_err(err)?;
     ds.add_var_i32("event_count", &grid).map_err(err)?;
 
-    let (length, velocity) = if calibrated {
-        ("mm", "m/s")
-    } else {
-        ("pixel", "pixel/millisecond")
+    let displacement = field.quantity == crate::field::Quantity::Displacement;
+    let (length, velocity) = match (calibrated, displacement) {
+        (true, false) => ("mm", "m/s"),
+        (true, true) => ("mm", "mm"),
+        (false, false) => ("pixel", "pixel/millisecond"),
+        (false, true) => ("pixel", "pixel"),
     };
+    let noun = if displacement { "displacement" } else { "velocity" };
     let y_positive = match &field.calibration {
         Some(c) if c.y_up => "up",
         _ => "down",
@@ -97,12 +100,12 @@ pub fn write_field_netcdf(field: &FieldSeries, path: &Path) -> Result<()> {
         ("x", "axis", "X".into()),
         ("x", "long_name", "window centre, x (to the right)".into()),
         ("u", "units", velocity.into()),
-        ("u", "long_name", "velocity along x (to the right)".into()),
+        ("u", "long_name", format!("{noun} along x (to the right)")),
         ("v", "units", velocity.into()),
         (
             "v",
             "long_name",
-            format!("velocity along y (positive {y_positive})"),
+            format!("{noun} along y (positive {y_positive})"),
         ),
         ("status", "long_name", "vector status flags".into()),
         (

@@ -101,10 +101,11 @@ fn write_step(
         rows.iter()
             .flat_map(|&r| cols.iter().map(move |&c| field.index(ti, r, c)))
     };
+    let (image_unit, physical_unit) = field.quantity.units();
     let axes = match &field.calibration {
-        None => "x right, y down (image); px, px/ms".to_string(),
+        None => format!("x right, y down (image); px, {image_unit}"),
         Some(c) => format!(
-            "x right, y {}; mm, m/s; origin ({}, {}) px, {} mm/px",
+            "x right, y {}; mm, {physical_unit}; origin ({}, {}) px, {} mm/px",
             if c.y_up { "up" } else { "down" },
             c.origin_px[0],
             c.origin_px[1],
