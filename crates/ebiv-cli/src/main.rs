@@ -31,6 +31,8 @@ enum Command {
     Convert(cmd::convert::ConvertArgs),
     /// Draw a time-coded event image or an event-rate map as PNG.
     Render(cmd::render::RenderArgs),
+    /// Rebuild image frames from events (for PIV or inspection), optionally one per light pulse.
+    Frames(cmd::frames::FramesArgs),
     /// Measure velocity fields from a recording: sum of correlation or motion compensation.
     Process(Box<cmd::process::ProcessArgs>),
     /// Write a commented configuration file for `ebiv process --config`.
@@ -48,6 +50,7 @@ fn main() -> ExitCode {
         Command::Info(a) => cmd::info::run(a),
         Command::Convert(a) => cmd::convert::run(a),
         Command::Render(a) => cmd::render::run(a),
+        Command::Frames(a) => cmd::frames::run(a),
         Command::Process(a) => cmd::process::run(a),
         Command::Init(a) => cmd::process::init(a),
         Command::Simulate(a) => cmd::simulate::run(a),

@@ -25,6 +25,9 @@ pub enum BenchWhat {
     /// settings (simulated 1280x720 at about 20 M events/s, 40x40 px windows, 20 px step,
     /// T = 10 ms, 100 fields per second).
     Process(super::bench_process::ProcessBenchArgs),
+    /// Multi-pass PIV of a synthetic 1024x1024 image pair, windows 64/32/16 px at 50 %
+    /// overlap (the case timed for OpenPIV in the docs).
+    Piv(super::bench_piv::PivBenchArgs),
 }
 
 #[derive(Debug, Args)]
@@ -56,6 +59,7 @@ pub fn run(args: &BenchArgs) -> Result<(), ebiv::Error> {
         BenchWhat::Decode(a) => decode(a),
         BenchWhat::Simulate(a) => simulate(a),
         BenchWhat::Process(a) => super::bench_process::run(a),
+        BenchWhat::Piv(a) => super::bench_piv::run(a),
     }
 }
 

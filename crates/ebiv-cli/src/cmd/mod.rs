@@ -1,12 +1,15 @@
 //! One module per subcommand.
 
 pub mod bench;
+pub mod bench_piv;
 pub mod bench_process;
 pub mod convert;
 pub mod demo;
+pub mod frames;
 pub mod info;
 pub mod process;
 pub mod process_config;
+pub mod process_piv;
 pub mod process_run;
 pub mod render;
 pub mod simulate;

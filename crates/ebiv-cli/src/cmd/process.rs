@@ -15,16 +15,72 @@ use std::path::PathBuf;
 /// centre of its time slab.
 #[derive(Debug, Args)]
 pub struct ProcessArgs {
-    /// The recording (any format `ebiv info` reads).
+    /// The recording (any format `ebiv info` reads); not needed with --images.
     pub file: Option<PathBuf>,
     /// Settings file (TOML, see `ebiv init`); flags override its keys.
     #[arg(long, value_name = "TOML")]
     pub config: Option<PathBuf>,
-    /// Estimator: `corrsum` (sum of correlation, fast) or `motion` (motion compensation).
+    /// Estimator: `corrsum` (sum of correlation, fast), `motion` (motion compensation),
+    /// `piv` (cross-correlation PIV of frames rebuilt from the events, or of `--images`) or
+    /// `pulsed` (PIV of one frame per light pulse, pulse timing detected).
     #[arg(long)]
     pub method: Option<String>,
-    /// Window size in px, one per pass, largest first (e.g. `40` or `64,40`). Default: 64,40.
-    #[arg(long, value_parser = ListOfU32::parse, value_name = "PX[,PX..]")]
+    /// piv: image files or patterns (`frames/*.png`) instead of a recording; pairs (1,2),
+    /// (3,4), …; u and v are then displacements in px (velocities with --dt).
+    #[arg(long, num_args = 1.., value_name = "IMAGE")]
+    pub images: Option<Vec<String>>,
+    /// piv images: pair the images as a sequence (1,2), (2,3), …
+    #[arg(long)]
+    pub sequence: bool,
+    /// piv images: sum the correlation planes of all pairs into one field (ensemble PIV).
+    #[arg(long)]
+    pub ensemble: bool,
+    /// piv images: time between the two frames of a pair; outputs velocities in px/ms.
+    #[arg(long, value_parser = parse_duration, value_name = "DUR")]
+    pub dt: Option<Duration>,
+    /// piv: overlap of neighbouring windows, 0 ≤ overlap < 1 (default 0.5), when --step is
+    /// not given.
+    #[arg(long)]
+    pub overlap: Option<f64>,
+    /// piv: correlation, circular (default) or linear (zero-padded).
+    #[arg(long)]
+    pub correlation: Option<String>,
+    /// piv: window deformation, symmetric (default) or second.
+    #[arg(long)]
+    pub deformation: Option<String>,
+    /// piv: image interpolation for the deformation: quintic (default), cubic or linear.
+    #[arg(long)]
+    pub interpolation: Option<String>,
+    /// piv: repetitions of the last pass at most (default 2; stops when the field changes by
+    /// less than 0.01 px).
+    #[arg(long)]
+    pub iterations: Option<u32>,
+    /// piv of events: exposure of one rebuilt frame (default 1.5ms).
+    #[arg(long, value_parser = parse_duration, value_name = "DUR")]
+    pub exposure: Option<Duration>,
+    /// piv of events: time Δt between consecutive frames (default 2.5ms).
+    #[arg(long, value_parser = parse_duration, value_name = "DUR")]
+    pub frame_step: Option<Duration>,
+    /// piv of events: frame kind, count (default), binary or time-surface.
+    #[arg(long)]
+    pub frame_kind: Option<String>,
+    /// piv of events: spread each event over a Gaussian of this σ in px (default 0).
+    #[arg(long, value_name = "PX")]
+    pub splat: Option<f64>,
+    /// piv of events: frame pairs per field whose correlation planes are summed (default
+    /// 1; 3 for the paper's four-frame sequences).
+    #[arg(long)]
+    pub pairs: Option<u32>,
+    /// pulsed: nominal pulse frequency in Hz (default: found from the events or triggers).
+    #[arg(long, value_name = "HZ")]
+    pub pulse_hz: Option<f64>,
+    /// Mask image of the sensor's size (PNG, TIFF, BMP): non-zero pixels are left out;
+    /// windows centred on them are flagged `masked`.
+    #[arg(long, value_name = "IMAGE")]
+    pub mask: Option<PathBuf>,
+    /// Window size in px, one per pass, largest first (e.g. `40` or `64,40`). Default:
+    /// 64,40 (piv: 64,32,16).
+    #[arg(long, alias = "passes", value_parser = ListOfU32::parse, value_name = "PX[,PX..]")]
     pub window: Option<ListOfU32>,
     /// Grid step in px, one per pass (default: half of each window).
     #[arg(long, value_parser = ListOfU32::parse, value_name = "PX[,PX..]")]
@@ -135,6 +191,22 @@ impl ProcessArgs {
             mm_per_px: self.mm_per_px,
             origin: self.origin,
             y_up: self.y_up.then_some(true),
+            mask: self.mask.clone(),
+            images: self.images.clone(),
+            overlap: self.overlap,
+            correlation: self.correlation.clone(),
+            deformation: self.deformation.clone(),
+            interpolation: self.interpolation.clone(),
+            iterations: self.iterations,
+            sequence: self.sequence.then_some(true),
+            ensemble: self.ensemble.then_some(true),
+            dt: self.dt,
+            exposure: self.exposure,
+            frame_step: self.frame_step,
+            frame_kind: self.frame_kind.clone(),
+            splat: self.splat,
+            pairs: self.pairs,
+            pulse_hz: self.pulse_hz,
             validation: validation.map(|_| Default::default()),
             corrsum: None,
             motion: None,

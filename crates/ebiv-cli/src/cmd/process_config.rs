@@ -14,6 +14,7 @@ use std::path::PathBuf;
 pub struct ProcessConfig {
     pub input: Option<PathBuf>,
     pub method: Option<String>,
+    #[serde(alias = "passes")]
     pub window: Option<ListOfU32>,
     pub step: Option<ListOfU32>,
     pub slab: Option<Duration>,
@@ -31,6 +32,22 @@ pub struct ProcessConfig {
     pub mm_per_px: Option<f64>,
     pub origin: Option<[f64; 2]>,
     pub y_up: Option<bool>,
+    pub mask: Option<PathBuf>,
+    pub images: Option<Vec<String>>,
+    pub overlap: Option<f64>,
+    pub correlation: Option<String>,
+    pub deformation: Option<String>,
+    pub interpolation: Option<String>,
+    pub iterations: Option<u32>,
+    pub sequence: Option<bool>,
+    pub ensemble: Option<bool>,
+    pub dt: Option<Duration>,
+    pub exposure: Option<Duration>,
+    pub frame_step: Option<Duration>,
+    pub frame_kind: Option<String>,
+    pub splat: Option<f64>,
+    pub pairs: Option<u32>,
+    pub pulse_hz: Option<f64>,
     pub validation: Option<ValidationParams>,
     pub corrsum: Option<CorrSumParams>,
     pub motion: Option<MotionParams>,
@@ -102,6 +119,22 @@ impl ProcessConfig {
             mm_per_px,
             origin,
             y_up,
+            mask,
+            images,
+            overlap,
+            correlation,
+            deformation,
+            interpolation,
+            iterations,
+            sequence,
+            ensemble,
+            dt,
+            exposure,
+            frame_step,
+            frame_kind,
+            splat,
+            pairs,
+            pulse_hz,
             validation,
             corrsum,
             motion
@@ -115,7 +148,9 @@ pub const TEMPLATE: &str = r#"# ebiv process configuration: `ebiv process --conf
 # Image coordinates: x to the right, y down, pixel centres at integers.
 
 # input = "recording.raw"       # the recording (or give it on the command line)
-method = "corrsum"              # corrsum (sum of correlation) or motion (motion compensation)
+method = "corrsum"              # corrsum (sum of correlation), motion (motion compensation),
+                                # piv (PIV of frames rebuilt from events, or of --images)
+                                # or pulsed (PIV of one frame per light pulse)
 
 # Interrogation windows and grid step, px; a list gives one pass each, largest first:
 # the first pass predicts the velocity for the next (window offset / search centre).
@@ -137,6 +172,26 @@ output = "flow.nc"              # .nc, .csv, .npz, .dat (Tecplot) or .vtk
 # search-range = 4.0            # motion: half-width of the velocity search, px/ms
 #                               # (default: window / slab, a quarter of it around a predictor)
 replace = false                 # replace outliers of the last pass by interpolation
+
+# mask = "mask.png"             # image of the sensor size; non-zero pixels are left out
+
+# PIV (method = "piv" or "pulsed"); windows above are the passes, e.g. [64, 32, 16]
+# images = ["a.bmp", "b.bmp"]   # image files or patterns (frame_*.png) instead of events:
+#                               # pairs (1,2), (3,4), …; u, v are displacements in px
+# sequence = false              # images: pairs (1,2), (2,3), … instead
+# ensemble = false              # images: sum the correlation planes of all pairs, one field
+# dt = "1ms"                    # images: time between the frames: velocities instead
+# overlap = 0.5                 # step = window × (1 − overlap) when `step` is not given
+# correlation = "circular"      # circular or linear (zero-padded)
+# deformation = "symmetric"     # symmetric (both frames by ∓½ predictor) or second
+# interpolation = "quintic"     # quintic, cubic (B-splines) or linear image resampling
+# iterations = 2                # repetitions of the last pass at most
+# exposure = "1.5ms"            # events: exposure of one rebuilt frame
+# frame-step = "2.5ms"          # events: time between frames (Δt)
+# frame-kind = "count"          # events: count, binary or time-surface
+# splat = 0.0                   # events: Gaussian σ (px) each event is spread over
+# pairs = 1                     # events: frame pairs per field, planes summed (3 = 4 frames)
+# pulse-hz = 2000.0             # pulsed: nominal pulse frequency (default: detected)
 
 # Calibration: positions in mm and velocities in m/s in the outputs
 # mm-per-px = 0.05

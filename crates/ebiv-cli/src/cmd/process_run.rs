@@ -9,7 +9,7 @@ use ebiv::estimate::peak::SubPixelFit;
 use ebiv::estimate::Estimator;
 use ebiv::field::{Calibration, FieldSeries};
 use ebiv::filter::Roi;
-use ebiv::grid::GridSpec;
+use ebiv::grid::{GridSpec, Mask};
 use ebiv::io::ReadOptions;
 use ebiv::process::{process_recording, scan_extent, FieldDone, ProcessParams, TimeSteps};
 use ebiv::render::{
@@ -23,18 +23,25 @@ use std::time::Instant;
 /// At most this many frames go into the animation.
 const MAX_GIF_FRAMES: usize = 200;
 
-/// The two estimators.
+/// The estimators.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Method {
     CorrSum,
     Motion,
+    /// Cross-correlation PIV of image pairs or of frames rebuilt from events.
+    Piv,
+    /// PIV of one frame per light pulse.
+    Pulsed,
 }
 
 /// Every setting of a run, resolved and checked.
 #[derive(Debug, Clone)]
 pub struct Settings {
+    /// The recording; a placeholder naming the first image with `--images`.
     pub input: PathBuf,
     pub method: Method,
+    /// PIV settings (methods piv and pulsed).
+    pub piv: super::process_piv::PivSettings,
     pub corrsum: CorrSumParams,
     pub motion: MotionParams,
     pub params: ProcessParams,
@@ -44,35 +51,68 @@ pub struct Settings {
     pub output: PathBuf,
     pub png: Option<PathBuf>,
     pub calibration: Option<Calibration>,
+    /// The mask image, loaded and checked against the sensor size when the run starts.
+    pub mask: Option<PathBuf>,
 }
 
 impl Settings {
     /// Resolve a merged configuration into settings, with defaults and checks.
     pub fn from_config(c: &ProcessConfig) -> Result<Settings, Error> {
-        let input = c.input.clone().ok_or_else(|| {
-            Error::parameter(
-                "input",
-                "no recording given (ebiv process FILE, or `input` in the config)",
-            )
-        })?;
         let method = match c.method.as_deref().unwrap_or("corrsum") {
             "corrsum" | "sum-of-correlation" | "correlation" => Method::CorrSum,
             "motion" | "motion-compensation" | "cmax" => Method::Motion,
+            "piv" => Method::Piv,
+            "pulsed" | "pulsed-ebiv" => Method::Pulsed,
             other => {
                 return Err(Error::parameter(
                     "method",
-                    format!("`{other}` is not corrsum or motion"),
+                    format!("`{other}` is not corrsum, motion, piv or pulsed"),
                 ))
             }
+        };
+        let is_piv = matches!(method, Method::Piv | Method::Pulsed);
+        if c.images.is_some() && method != Method::Piv {
+            return Err(Error::parameter("images", "image input needs --method piv"));
+        }
+        let input = match (&c.input, &c.images) {
+            (Some(_), Some(_)) => {
+                return Err(Error::parameter(
+                    "images",
+                    "give either a recording or --images, not both",
+                ))
+            }
+            (Some(i), None) => i.clone(),
+            (None, Some(images)) => PathBuf::from(images.first().cloned().unwrap_or_default()),
+            (None, None) => {
+                return Err(Error::parameter(
+                    "input",
+                    "no recording given (ebiv process FILE, or `input` in the config)",
+                ))
+            }
+        };
+        let default_windows = if is_piv {
+            vec![64, 32, 16]
+        } else {
+            vec![64, 40]
         };
         let windows = c
             .window
             .as_ref()
             .map(|w| w.values())
-            .unwrap_or(vec![64, 40]);
+            .unwrap_or(default_windows);
+        let overlap = c.overlap.unwrap_or(0.5);
+        if !(0.0..1.0).contains(&overlap) {
+            return Err(Error::parameter(
+                "overlap",
+                format!("must lie in [0, 1), got {overlap}"),
+            ));
+        }
         let steps = match &c.step {
             Some(s) => s.values(),
-            None => windows.iter().map(|w| (w / 2).max(1)).collect(),
+            None => windows
+                .iter()
+                .map(|&w| ((w as f64 * (1.0 - overlap)).round() as u32).max(1))
+                .collect(),
         };
         if steps.len() != windows.len() {
             return Err(Error::parameter(
@@ -85,15 +125,7 @@ impl Settings {
             ));
         }
         let roi = c.roi.as_deref().map(Roi::parse).transpose()?;
-        let passes = windows
-            .iter()
-            .zip(&steps)
-            .map(|(&w, &s)| GridSpec {
-                window: [w, w],
-                step: [s, s],
-                roi,
-            })
-            .collect();
+        let passes = passes_for_piv(&windows, &steps, roi);
         let polarity = match c.polarity.as_deref() {
             None => PolaritySelection::Positive,
             Some(p) => PolaritySelection::parse(p).ok_or_else(|| {
@@ -154,13 +186,21 @@ impl Settings {
             }
             None => None,
         };
+        let piv = super::process_piv::PivSettings::from_config(
+            c,
+            &passes_for_piv(&windows, &steps, roi),
+            polarity,
+            fit,
+            &validation,
+        )?;
         Ok(Settings {
             input,
             method,
+            piv,
             corrsum,
             motion,
             params: ProcessParams {
-                passes,
+                passes: passes.clone(),
                 polarity,
                 validation,
                 replace_final: c.replace.unwrap_or(false),
@@ -171,16 +211,30 @@ impl Settings {
             output: c.output.clone().unwrap_or_else(|| PathBuf::from("flow.nc")),
             png: c.png.clone(),
             calibration,
+            mask: c.mask.clone(),
         })
     }
 
-    /// Slab length T, µs.
+    /// Slab length T, µs (corrsum and motion).
     fn slab_us(&self) -> i64 {
         match self.method {
-            Method::CorrSum => self.corrsum.slab_us,
             Method::Motion => self.motion.slab_us,
+            _ => self.corrsum.slab_us,
         }
     }
+}
+
+/// The grid specs of the passes.
+fn passes_for_piv(windows: &[u32], steps: &[u32], roi: Option<Roi>) -> Vec<GridSpec> {
+    windows
+        .iter()
+        .zip(steps)
+        .map(|(&w, &s)| GridSpec {
+            window: [w, w],
+            step: [s, s],
+            roi,
+        })
+        .collect()
 }
 
 /// Run the settings on their recording.
@@ -188,12 +242,29 @@ pub fn run_config(s: &Settings, options: &ReadOptions) -> Result<(), Error> {
     match s.method {
         Method::CorrSum => execute(s, options, &SumOfCorrelation::new(s.corrsum)?),
         Method::Motion => execute(s, options, &ContrastMaximization::new(s.motion.clone())?),
+        Method::Piv if s.piv.images.is_some() => super::process_piv::run_images(s),
+        Method::Piv | Method::Pulsed => super::process_piv::run_events(s, options),
     }
 }
 
-fn execute<E: Estimator>(s: &Settings, options: &ReadOptions, estimator: &E) -> Result<(), Error> {
-    let (before, after) = estimator.time_extent_us();
-    let mut reader = ebiv::io::open(&s.input, options)?;
+/// An opened recording with its sensor size and the field times of a run.
+pub struct Planned {
+    pub reader: ebiv::io::EventReader,
+    pub geometry: Geometry,
+    pub times: Vec<i64>,
+}
+
+/// Open the recording and resolve the field times: `--time` (relative to the first event
+/// unless absolute), or every field that fits given the time a field needs `before` and
+/// `after` its centre, one every `default_step` µs.
+pub fn plan_fields(
+    s: &Settings,
+    options: &ReadOptions,
+    before: i64,
+    after: i64,
+    default_step: i64,
+) -> Result<Planned, Error> {
+    let reader = ebiv::io::open(&s.input, options)?;
     let mut geometry = reader.metadata().geometry;
     let needs_scan =
         geometry.is_none() || !s.absolute_time || s.time.0.is_none() || s.time.1.is_none();
@@ -216,7 +287,7 @@ fn execute<E: Estimator>(s: &Settings, options: &ReadOptions, estimator: &E) -> 
         extent.max_y as u32 + 1,
     ));
     let origin = if s.absolute_time { 0 } else { extent.first_us };
-    let step = s.time.2.unwrap_or(s.slab_us());
+    let step = s.time.2.unwrap_or(default_step);
     let fitting = TimeSteps::fitting(extent.first_us, extent.last_us, before, after, step);
     let start = s.time.0.map(|t| origin + t);
     let end = s.time.1.map(|t| origin + t);
@@ -231,7 +302,7 @@ fn execute<E: Estimator>(s: &Settings, options: &ReadOptions, estimator: &E) -> 
             return Err(Error::parameter(
                 "time",
                 format!(
-                    "the recording ({} ms) is shorter than one field needs ({} ms); use a shorter --slab",
+                    "the recording ({} ms) is shorter than one field needs ({} ms); use a shorter --slab (piv: --frame-step, --exposure, --pairs)",
                     (extent.last_us - extent.first_us) / 1000,
                     (before + after) / 1000
                 ),
@@ -239,7 +310,47 @@ fn execute<E: Estimator>(s: &Settings, options: &ReadOptions, estimator: &E) -> 
         }
     };
     let times = steps.times(1_000_000)?;
-    s.params.grids(g)?; // report a window that does not fit before anything else
+    Ok(Planned {
+        reader,
+        geometry: g,
+        times,
+    })
+}
+
+/// Load the mask image, if any, and check it against the sensor.
+pub fn load_mask(s: &Settings, g: Geometry) -> Result<Option<Mask>, Error> {
+    let Some(path) = &s.mask else {
+        return Ok(None);
+    };
+    let image = ebiv::frame::file::load(path)?;
+    if image.width != g.width || image.height != g.height {
+        return Err(Error::parameter(
+            "mask",
+            format!(
+                "{} is {}×{} px but the sensor is {g}",
+                path.display(),
+                image.width,
+                image.height
+            ),
+        ));
+    }
+    Ok(Some(Mask {
+        width: image.width,
+        height: image.height,
+        masked: image.data.iter().map(|&v| v != 0.0).collect(),
+    }))
+}
+
+fn execute<E: Estimator>(s: &Settings, options: &ReadOptions, estimator: &E) -> Result<(), Error> {
+    let (before, after) = estimator.time_extent_us();
+    let Planned {
+        mut reader,
+        geometry: g,
+        times,
+    } = plan_fields(s, options, before, after, s.slab_us())?;
+    let mut params = s.params.clone();
+    params.mask = load_mask(s, g)?;
+    params.grids(g)?; // report a window that does not fit before anything else
     println!(
         "{}: {} field(s) from {} to {} µs, {} on {g}, passes {}",
         s.input.display(),
@@ -269,7 +380,7 @@ fn execute<E: Estimator>(s: &Settings, options: &ReadOptions, estimator: &E) -> 
         }
     };
     let (mut series, summary) =
-        process_recording(&mut reader, g, estimator, &s.params, &times, &mut on_field)?;
+        process_recording(&mut reader, g, estimator, &params, &times, &mut on_field)?;
     bar.finish_and_clear();
     if let Some(e) = figure_error {
         return Err(e);
@@ -308,7 +419,12 @@ pub fn describe_passes(p: &ProcessParams) -> String {
 }
 
 /// The vector map of one field over the time-coded image of its slab.
-fn field_figure(d: &FieldDone, g: Geometry, s: &Settings, extent: (i64, i64)) -> image::RgbImage {
+pub fn field_figure(
+    d: &FieldDone,
+    g: Geometry,
+    s: &Settings,
+    extent: (i64, i64),
+) -> image::RgbImage {
     let half = extent.0.min(extent.1).max(1);
     let events = time_coded_image(d.events, g, d.t0_us, half, s.params.polarity);
     let style = VectorMapStyle {
@@ -342,7 +458,7 @@ pub fn series_histograms(
 }
 
 /// Histograms of u and v and the animation, after the run.
-fn write_series_figures(
+pub fn write_series_figures(
     series: &FieldSeries,
     dir: &std::path::Path,
     s: &Settings,
@@ -350,7 +466,8 @@ fn write_series_figures(
 ) -> Result<(), Error> {
     let tau_ms = match s.method {
         Method::CorrSum => Some(s.corrsum.tau_us as f64 / 1000.0),
-        Method::Motion => None,
+        Method::Piv => Some(s.piv.frame_step_us as f64 / 1000.0),
+        Method::Motion | Method::Pulsed => None,
     };
     let hist = series_histograms(series, "", tau_ms);
     save_png(&hist, &dir.join("histograms.png"))?;

@@ -1,1 +1,579 @@
 //! Conventional cross-correlation PIV on image pairs and on frames rebuilt from events.
+//!
+//! Multi-pass interrogation with window deformation (Scarano 2002, Meas. Sci. Technol.
+//! 13:R1–R19; Raffel et al., "Particle Image Velocimetry", 3rd ed., §5.5; algorithms.md §16):
+//!
+//! 1. the first pass correlates windows of the raw frames;
+//! 2. its field is validated (normalized median test), gaps are filled and the field is
+//!    smoothed: the predictor;
+//! 3. every later pass interpolates the predictor to each pixel, deforms both frames by half
+//!    of it in opposite directions ([`deform`], central differences), correlates the deformed
+//!    windows ([`correlate`]) and adds the residual displacement to the predictor;
+//! 4. the last pass may be repeated until the field changes by less than
+//!    [`PivParams::convergence_px`] (PIVlab's iterative last pass), and is validated; replacing
+//!    its outliers is a separate, optional step, as for the event estimators.
+//!
+//! Several frame pairs may be evaluated together: their correlation planes are summed window
+//! by window before the peak search (ensemble correlation, Meinhart, Wereley & Santiago 2000,
+//! J. Fluids Eng. 122:285 — the frame analogue of the EBIV sum of correlation).
+//!
+//! Results are displacements in px from the first to the second frame of a pair, on the same
+//! [`VectorField`] as every other estimator, with status flags, peak (correlation coefficient
+//! of the deformed windows), peak ratio and the number of non-zero pixels of the first frame's
+//! window in `event_count`.
+
+pub mod correlate;
+pub mod deform;
+pub mod events;
+pub mod synthetic;
+
+pub use correlate::{CorrelationKind, Correlator};
+pub use deform::{DenseField, Interpolation, Resampler};
+pub use events::{piv_events, EventPivParams, FrameClock, FramePlan};
+
+use crate::error::{Error, Result};
+use crate::estimate::peak::{find_peak, SubPixelFit};
+use crate::field::{Status, VectorField};
+use crate::frame::Frame;
+use crate::grid::{Grid, GridSpec, Mask, Window};
+use crate::validate::{self, ValidationParams, ValidationSummary};
+use rayon::prelude::*;
+use serde::{Deserialize, Serialize};
+
+/// Which frames are deformed by the predictor.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum DeformationMode {
+    /// Both frames by ∓½ of the predictor (central differences, second-order accurate;
+    /// OpenPIV's default).
+    #[default]
+    Symmetric,
+    /// Only the second frame, by the whole predictor (PIVlab's choice).
+    Second,
+}
+
+impl DeformationMode {
+    /// Parse `symmetric` or `second`.
+    pub fn parse(text: &str) -> Option<Self> {
+        match text {
+            "symmetric" | "central" => Some(DeformationMode::Symmetric),
+            "second" | "forward" => Some(DeformationMode::Second),
+            _ => None,
+        }
+    }
+
+    /// Factors applied to the predictor when sampling the first and the second frame.
+    fn factors(self) -> (f32, f32) {
+        match self {
+            DeformationMode::Symmetric => (-0.5, 0.5),
+            DeformationMode::Second => (0.0, 1.0),
+        }
+    }
+}
+
+/// Everything about a PIV evaluation.
+#[derive(Debug, Clone, PartialEq)]
+pub struct PivParams {
+    /// Interrogation grids, first pass first (e.g. 64 → 32 → 16 px, step half the window).
+    pub passes: Vec<GridSpec>,
+    /// Circular or zero-padded linear correlation.
+    pub correlation: CorrelationKind,
+    /// Sub-pixel peak estimator.
+    pub fit: SubPixelFit,
+    /// Which frames the predictor deforms.
+    pub deformation: DeformationMode,
+    /// Image interpolation used for the deformation.
+    pub interpolation: Interpolation,
+    /// Outlier detection after every pass; ε and limits in px of displacement.
+    pub validation: ValidationParams,
+    /// Replace the outliers of the last pass (they keep their flag plus
+    /// [`Status::REPLACED`]); between passes they are always replaced.
+    pub replace_final: bool,
+    /// Gaussian smoothing of the predictor between passes, in grid nodes (0 = off).
+    pub predictor_smoothing: f64,
+    /// Repetitions of the last pass at most, each with the previous result as predictor.
+    pub final_iterations: u32,
+    /// The repetitions stop once the RMS change of the field is below this, px (PIVlab:
+    /// 0.025 px).
+    pub convergence_px: f64,
+    /// Pixels to leave out: they count as the window mean; windows whose centre is masked
+    /// are not evaluated.
+    pub mask: Option<Mask>,
+}
+
+impl Default for PivParams {
+    fn default() -> Self {
+        PivParams {
+            passes: vec![
+                GridSpec::square(64, 32),
+                GridSpec::square(32, 16),
+                GridSpec::square(16, 8),
+            ],
+            correlation: CorrelationKind::Circular,
+            fit: SubPixelFit::Gaussian3,
+            deformation: DeformationMode::Symmetric,
+            interpolation: Interpolation::Quintic,
+            validation: ValidationParams::default(),
+            replace_final: false,
+            predictor_smoothing: 0.5,
+            final_iterations: 2,
+            convergence_px: 0.01,
+            mask: None,
+        }
+    }
+}
+
+impl PivParams {
+    /// Passes of square windows `sizes` with `overlap` (0 ≤ overlap < 1) between neighbours.
+    pub fn passes_with_overlap(sizes: &[u32], overlap: f64) -> Result<Vec<GridSpec>> {
+        if !(0.0..1.0).contains(&overlap) {
+            return Err(Error::parameter(
+                "overlap",
+                format!("must lie in [0, 1), got {overlap}"),
+            ));
+        }
+        if sizes.is_empty() {
+            return Err(Error::parameter(
+                "passes",
+                "at least one window size is needed",
+            ));
+        }
+        Ok(sizes
+            .iter()
+            .map(|&s| {
+                let step = ((s as f64 * (1.0 - overlap)).round() as u32).max(1);
+                GridSpec::square(s, step)
+            })
+            .collect())
+    }
+
+    /// Check that every parameter is in range.
+    pub fn check(&self) -> Result<()> {
+        if self.passes.is_empty() {
+            return Err(Error::parameter("passes", "at least one pass is needed"));
+        }
+        self.validation.check()?;
+        if !(self.predictor_smoothing.is_finite() && self.predictor_smoothing >= 0.0) {
+            return Err(Error::parameter(
+                "predictor_smoothing",
+                format!("must be zero or positive, got {}", self.predictor_smoothing),
+            ));
+        }
+        if !(self.convergence_px.is_finite() && self.convergence_px >= 0.0) {
+            return Err(Error::parameter(
+                "convergence_px",
+                format!("must be zero or positive, got {}", self.convergence_px),
+            ));
+        }
+        Ok(())
+    }
+}
+
+/// The settings of a PIV run as output attributes (NetCDF, VTK, Tecplot, CSV comments).
+pub fn attributes(p: &PivParams) -> Vec<(String, String)> {
+    let passes = p
+        .passes
+        .iter()
+        .map(|g| {
+            format!(
+                "{}x{} px step {}x{}",
+                g.window[0], g.window[1], g.step[0], g.step[1]
+            )
+        })
+        .collect::<Vec<_>>()
+        .join(", ");
+    vec![
+        ("passes".to_string(), passes),
+        (
+            "correlation".to_string(),
+            format!("{:?}", p.correlation).to_lowercase(),
+        ),
+        (
+            "subpixel_fit".to_string(),
+            format!("{:?}", p.fit).to_lowercase(),
+        ),
+        (
+            "deformation".to_string(),
+            format!("{:?}", p.deformation).to_lowercase(),
+        ),
+        (
+            "interpolation".to_string(),
+            format!("{:?}", p.interpolation).to_lowercase(),
+        ),
+        (
+            "final_pass_iterations".to_string(),
+            format!(
+                "up to {} repetitions, until the RMS change < {} px",
+                p.final_iterations, p.convergence_px
+            ),
+        ),
+        (
+            "predictor_smoothing_nodes".to_string(),
+            p.predictor_smoothing.to_string(),
+        ),
+        ("validation".to_string(), format!("{:?}", p.validation)),
+        ("replace_final".to_string(), p.replace_final.to_string()),
+        (
+            "position".to_string(),
+            "window centroid, image coordinates: x right, y down, pixel centres at integers"
+                .to_string(),
+        ),
+        (
+            "peak".to_string(),
+            "correlation coefficient at the peak of the (summed) correlation plane".to_string(),
+        ),
+        (
+            "event_count".to_string(),
+            "non-zero pixels in the first frame's window (summed over the pairs)".to_string(),
+        ),
+        ("status_flags".to_string(), Status::legend()),
+    ]
+}
+
+/// What one pass did.
+#[derive(Debug, Clone, PartialEq)]
+pub struct PassReport {
+    /// Window width and height, px.
+    pub window: [u32; 2],
+    /// Vectors on the pass's grid.
+    pub vectors: usize,
+    /// Evaluations of the pass (1 + repetitions of the last pass).
+    pub iterations: u32,
+    /// RMS change of the field in the last repetition, px (NaN without repetitions).
+    pub last_change_px: f64,
+    /// Valid share after validation.
+    pub valid_share: f64,
+}
+
+/// The result of a PIV evaluation.
+#[derive(Debug, Clone)]
+pub struct PivOutput {
+    /// The last pass's displacement field, px.
+    pub field: VectorField,
+    /// What validation found in the last pass.
+    pub validation: ValidationSummary,
+    /// Vectors replaced in the last pass (0 unless `replace_final`).
+    pub replaced: usize,
+    /// One report per pass.
+    pub passes: Vec<PassReport>,
+}
+
+/// Multi-pass PIV of one image pair: displacements in px from `a` to `b`.
+pub fn piv_pair(a: &Frame, b: &Frame, params: &PivParams) -> Result<PivOutput> {
+    piv_ensemble(&[(a, b)], params)
+}
+
+/// Multi-pass PIV of several image pairs of the same scene whose correlation planes are
+/// summed before each peak search (ensemble correlation; e.g. the pairs (1,2), (2,3), (3,4) of
+/// a four-frame sequence, or many pairs of a statistically steady flow).
+pub fn piv_ensemble(pairs: &[(&Frame, &Frame)], params: &PivParams) -> Result<PivOutput> {
+    params.check()?;
+    let (first, _) = pairs
+        .first()
+        .ok_or_else(|| Error::parameter("frames", "at least one frame pair is needed"))?;
+    let (width, height) = (first.width, first.height);
+    for (i, (a, b)) in pairs.iter().enumerate() {
+        for (which, f) in [("first", a), ("second", b)] {
+            if f.width != width || f.height != height {
+                return Err(Error::parameter(
+                    "frames",
+                    format!(
+                        "the {which} frame of pair {} is {}×{} px, the first frame is {width}×{height} px; all frames must have the same size",
+                        i + 1,
+                        f.width,
+                        f.height
+                    ),
+                ));
+            }
+            if f.data.len() != width as usize * height as usize {
+                return Err(Error::parameter(
+                    "frames",
+                    format!(
+                        "the {which} frame of pair {} has the wrong number of pixels",
+                        i + 1
+                    ),
+                ));
+            }
+        }
+    }
+    if let Some(m) = &params.mask {
+        if m.width != width || m.height != height {
+            return Err(Error::parameter(
+                "mask",
+                format!(
+                    "the mask is {}×{} px but the frames are {width}×{height} px",
+                    m.width, m.height
+                ),
+            ));
+        }
+    }
+    let grids: Vec<Grid> = params
+        .passes
+        .iter()
+        .map(|p| Grid::new(p, first.geometry()))
+        .collect::<Result<_>>()?;
+    let needs_resampling = grids.len() > 1 || params.final_iterations > 0;
+    let resamplers: Vec<(Resampler, Resampler)> = if needs_resampling {
+        pairs
+            .iter()
+            .map(|(a, b)| {
+                (
+                    Resampler::new(a, params.interpolation),
+                    Resampler::new(b, params.interpolation),
+                )
+            })
+            .collect()
+    } else {
+        Vec::new()
+    };
+
+    let mut predictor: Option<VectorField> = None;
+    let mut reports = Vec::with_capacity(grids.len());
+    for (k, grid) in grids.iter().enumerate() {
+        let is_last = k + 1 == grids.len();
+        let evaluations = if is_last {
+            1 + params.final_iterations
+        } else {
+            1
+        };
+        let mut iterations = 0;
+        let mut change = f64::NAN;
+        let mut field;
+        let mut validation;
+        loop {
+            iterations += 1;
+            field = evaluate_pass(pairs, &resamplers, grid, params, predictor.as_ref());
+            validation = validate::validate(&mut field, &params.validation);
+            let repeat = iterations < evaluations;
+            if let Some(p) = predictor
+                .as_ref()
+                .filter(|p| p.x == field.x && p.y == field.y)
+            {
+                change = rms_change(p, &field);
+            }
+            let converged = iterations > 1 && change < params.convergence_px;
+            if !repeat || converged {
+                break;
+            }
+            let mut next = field.clone();
+            prepare_predictor(&mut next, params);
+            predictor = Some(next);
+        }
+        reports.push(PassReport {
+            window: grid.window,
+            vectors: grid.len(),
+            iterations,
+            last_change_px: if iterations > 1 { change } else { f64::NAN },
+            valid_share: field.valid_share(),
+        });
+        if is_last {
+            let replaced = if params.replace_final {
+                validate::replace_invalid(&mut field, &Default::default())
+            } else {
+                0
+            };
+            return Ok(PivOutput {
+                field,
+                validation,
+                replaced,
+                passes: reports,
+            });
+        }
+        prepare_predictor(&mut field, params);
+        predictor = Some(field);
+    }
+    unreachable!("the last pass returns")
+}
+
+/// Fill the gaps of a validated field and smooth it, so it can predict the next pass.
+fn prepare_predictor(field: &mut VectorField, params: &PivParams) {
+    validate::replace_invalid(field, &Default::default());
+    if params.predictor_smoothing > 0.0 {
+        validate::smooth(field, params.predictor_smoothing);
+    }
+}
+
+/// RMS difference of the vectors both fields have, px.
+fn rms_change(a: &VectorField, b: &VectorField) -> f64 {
+    let (mut sum, mut n) = (0.0f64, 0usize);
+    for i in 0..a.len().min(b.len()) {
+        let (du, dv) = ((a.u[i] - b.u[i]) as f64, (a.v[i] - b.v[i]) as f64);
+        if du.is_finite() && dv.is_finite() {
+            sum += du * du + dv * dv;
+            n += 1;
+        }
+    }
+    if n == 0 {
+        f64::NAN
+    } else {
+        (sum / n as f64).sqrt()
+    }
+}
+
+/// Per-thread buffers of one pass.
+struct Scratch {
+    correlator: Correlator,
+    plane: Vec<f64>,
+    a: Vec<f32>,
+    b: Vec<f32>,
+}
+
+/// One evaluation of every window of `grid`, with the frames deformed by `predictor`.
+fn evaluate_pass(
+    pairs: &[(&Frame, &Frame)],
+    resamplers: &[(Resampler, Resampler)],
+    grid: &Grid,
+    params: &PivParams,
+    predictor: Option<&VectorField>,
+) -> VectorField {
+    let (width, height) = (pairs[0].0.width as usize, pairs[0].0.height as usize);
+    let dense = predictor.map(|p| DenseField::from_field(p, width, height));
+    let warped: Vec<(Frame, Frame)> = match &dense {
+        Some(d) => {
+            let (fa, fb) = params.deformation.factors();
+            resamplers
+                .iter()
+                .map(|(ra, rb)| (ra.warp(d, fa), rb.warp(d, fb)))
+                .collect()
+        }
+        None => Vec::new(),
+    };
+    let frames: Vec<(&Frame, &Frame)> = if dense.is_some() {
+        warped.iter().map(|(a, b)| (a, b)).collect()
+    } else {
+        pairs.to_vec()
+    };
+    let [ww, wh] = grid.window.map(|v| v as usize);
+    let mut field = VectorField::new(grid.x_centres(), grid.y_centres());
+    let results: Vec<WindowResult> = (0..grid.len())
+        .into_par_iter()
+        .map_init(
+            || Scratch {
+                correlator: Correlator::new(ww, wh, params.correlation),
+                plane: vec![0.0; ww * wh],
+                a: vec![0.0; ww * wh],
+                b: vec![0.0; ww * wh],
+            },
+            |scratch, i| {
+                if grid.is_masked(i, params.mask.as_ref()) {
+                    return WindowResult::invalid(Status::MASKED, 0);
+                }
+                let window = grid.window(i);
+                let base = dense
+                    .as_ref()
+                    .map(|d| {
+                        let c = window.centre();
+                        d.at(c[0], c[1])
+                    })
+                    .unwrap_or([0.0, 0.0]);
+                correlate_window(&frames, &window, params, scratch, base)
+            },
+        )
+        .collect();
+    for (i, r) in results.into_iter().enumerate() {
+        field.u[i] = r.u;
+        field.v[i] = r.v;
+        field.status[i] = r.status;
+        field.peak[i] = r.peak;
+        field.peak_ratio[i] = r.peak_ratio;
+        field.event_count[i] = r.nonzero;
+    }
+    field
+}
+
+/// The outcome of one window.
+struct WindowResult {
+    u: f32,
+    v: f32,
+    status: Status,
+    peak: f32,
+    peak_ratio: f32,
+    nonzero: u32,
+}
+
+impl WindowResult {
+    fn invalid(status: Status, nonzero: u32) -> Self {
+        WindowResult {
+            u: f32::NAN,
+            v: f32::NAN,
+            status,
+            peak: f32::NAN,
+            peak_ratio: f32::NAN,
+            nonzero,
+        }
+    }
+}
+
+/// Copy the window of `frame` into `out` with its mean removed; masked pixels count as the
+/// mean of the others. Returns the number of non-zero pixels.
+fn extract(frame: &Frame, window: &Window, mask: Option<&Mask>, out: &mut [f32]) -> u32 {
+    let (w, h) = (window.width as usize, window.height as usize);
+    let (x0, y0) = (window.x0 as usize, window.y0 as usize);
+    let (mut sum, mut n, mut nonzero) = (0.0f64, 0usize, 0u32);
+    for r in 0..h {
+        let row = &frame.row((y0 + r) as u32)[x0..x0 + w];
+        let dst = &mut out[r * w..(r + 1) * w];
+        for (c, (d, &s)) in dst.iter_mut().zip(row).enumerate() {
+            let masked = mask.is_some_and(|m| m.is_masked((x0 + c) as i64, (y0 + r) as i64));
+            if masked {
+                *d = f32::NAN;
+                continue;
+            }
+            *d = s;
+            sum += s as f64;
+            n += 1;
+            nonzero += (s != 0.0) as u32;
+        }
+    }
+    let mean = if n > 0 { (sum / n as f64) as f32 } else { 0.0 };
+    for d in out[..w * h].iter_mut() {
+        *d = if d.is_nan() { 0.0 } else { *d - mean };
+    }
+    nonzero
+}
+
+/// Correlate one window over all frame pairs and locate the summed plane's peak; the
+/// displacement is `base` (the predictor at the window centre) plus the residual.
+fn correlate_window(
+    frames: &[(&Frame, &Frame)],
+    window: &Window,
+    params: &PivParams,
+    scratch: &mut Scratch,
+    base: [f64; 2],
+) -> WindowResult {
+    let (w, h) = (window.width as usize, window.height as usize);
+    scratch.plane.fill(0.0);
+    let weight = 1.0 / frames.len() as f64;
+    let mask = params.mask.as_ref();
+    let (mut nonzero, mut signal) = (0u32, false);
+    for (a, b) in frames {
+        nonzero += extract(a, window, mask, &mut scratch.a);
+        extract(b, window, mask, &mut scratch.b);
+        let energy =
+            scratch
+                .correlator
+                .accumulate(&scratch.a, &scratch.b, &mut scratch.plane, weight);
+        signal |= energy > 0.0;
+    }
+    if !signal {
+        return WindowResult::invalid(Status::NO_EVENTS, nonzero);
+    }
+    let Some(peak) = find_peak(&scratch.plane, w, h, params.fit, 2) else {
+        return WindowResult::invalid(Status::NO_PEAK, nonzero);
+    };
+    let mut result = WindowResult::invalid(Status::NO_PEAK, nonzero);
+    result.peak = peak.value as f32;
+    result.peak_ratio = peak.ratio() as f32;
+    if peak.on_edge {
+        result.status = Status::OUT_OF_RANGE;
+        return result;
+    }
+    let (rx, ry) = (peak.x - (w / 2) as f64, peak.y - (h / 2) as f64);
+    if !(rx.is_finite() && ry.is_finite()) {
+        return result;
+    }
+    result.u = (base[0] + rx) as f32;
+    result.v = (base[1] + ry) as f32;
+    result.status = Status::VALID;
+    result
+}

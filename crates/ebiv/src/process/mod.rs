@@ -13,7 +13,7 @@ mod times;
 
 pub use stream::{
     process_recording, scan_extent, BatchSource, FieldDone, MemorySource, RecordingExtent,
-    RunSummary,
+    RunSummary, SlidingEvents,
 };
 pub use times::TimeSteps;
 

@@ -124,6 +124,59 @@ pub struct FieldDone<'a> {
     pub events: &'a EventBuffer,
 }
 
+/// The events of a sliding time interval of a stream: [`SlidingEvents::advance`] reads
+/// batches until the interval's end is covered and drops what lies before its start, so
+/// intervals must come in increasing order and memory stays bounded by one interval (plus a
+/// batch).
+#[derive(Debug, Default)]
+pub struct SlidingEvents {
+    window: EventBuffer,
+    batch: EventBuffer,
+    exhausted: bool,
+    /// Events read from the source so far.
+    pub events_read: u64,
+}
+
+impl SlidingEvents {
+    /// Read until an event at or after `end_us` (or the end of the source) and drop the
+    /// events before `start_us`; [`SlidingEvents::events`] then holds the interval (and
+    /// possibly events at or beyond `end_us`).
+    pub fn advance(
+        &mut self,
+        source: &mut impl BatchSource,
+        start_us: i64,
+        end_us: i64,
+    ) -> Result<()> {
+        while !self.exhausted && self.window.t.last().is_none_or(|&t| t < end_us) {
+            if source.next_batch(&mut self.batch)? {
+                self.events_read += self.batch.len() as u64;
+                self.window.extend_from(&self.batch);
+            } else {
+                self.exhausted = true;
+            }
+        }
+        let keep_from = self
+            .window
+            .t
+            .iter()
+            .position(|&t| t >= start_us)
+            .unwrap_or(self.window.len());
+        if keep_from > 0 {
+            let w = &mut self.window;
+            w.t.drain(..keep_from);
+            w.x.drain(..keep_from);
+            w.y.drain(..keep_from);
+            w.p.drain(..keep_from);
+        }
+        Ok(())
+    }
+
+    /// The events in memory, in stream order.
+    pub fn events(&self) -> &EventBuffer {
+        &self.window
+    }
+}
+
 /// Process `source` at the field times `times_us` (sorted ascending, duplicates dropped):
 /// the slab of each time is built from the events read so far, then evaluated by
 /// [`process_slab`]. `on_field` is called after every field.
@@ -143,21 +196,13 @@ pub fn process_recording<E: Estimator, S: BatchSource>(
     times.sort_unstable();
     times.dedup();
     let (before, after) = estimator.time_extent_us();
-    let mut window = EventBuffer::new();
-    let mut batch = EventBuffer::new();
-    let mut exhausted = false;
+    let mut sliding = SlidingEvents::default();
     let mut summary = RunSummary::default();
     for (k, &t0) in times.iter().enumerate() {
         let (start, end) = (t0 - before, t0 + after);
-        while !exhausted && window.t.last().is_none_or(|&t| t < end) {
-            if source.next_batch(&mut batch)? {
-                summary.events_read += batch.len() as u64;
-                window.extend_from(&batch);
-            } else {
-                exhausted = true;
-            }
-        }
-        drop_before(&mut window, start);
+        sliding.advance(source, start, end)?;
+        summary.events_read = sliding.events_read;
+        let window = sliding.events();
         let slab = Slab::build(
             &window.t,
             &window.x,
@@ -180,25 +225,10 @@ pub fn process_recording<E: Estimator, S: BatchSource>(
             total: times.len(),
             t0_us: t0,
             field: &result.field,
-            events: &window,
+            events: window,
         });
     }
     Ok((series, summary))
-}
-
-/// Remove the leading events earlier than `start` (the buffer is in nearly time order).
-fn drop_before(events: &mut EventBuffer, start: i64) {
-    let keep_from = events
-        .t
-        .iter()
-        .position(|&t| t >= start)
-        .unwrap_or(events.len());
-    if keep_from > 0 {
-        events.t.drain(..keep_from);
-        events.x.drain(..keep_from);
-        events.y.drain(..keep_from);
-        events.p.drain(..keep_from);
-    }
 }
 
 /// The processing parameters as output attributes.
