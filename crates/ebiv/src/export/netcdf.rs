@@ -79,7 +79,11 @@ pub fn write_field_netcdf(field: &FieldSeries, path: &Path) -> Result<()> {
         (false, false) => ("pixel", "pixel/millisecond"),
         (false, true) => ("pixel", "pixel"),
     };
-    let noun = if displacement { "displacement" } else { "velocity" };
+    let noun = if displacement {
+        "displacement"
+    } else {
+        "velocity"
+    };
     let y_positive = match &field.calibration {
         Some(c) if c.y_up => "up",
         _ => "down",
