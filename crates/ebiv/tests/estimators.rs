@@ -86,30 +86,36 @@ fn uniform_flow_of_2_px_per_ms_within_0_05_rms() {
 }
 
 /// Solid-body rotation: the velocity gradient makes a window estimate refer to wherever its
-/// few particles are; deforming the events by the predictor's gradient (later passes) must
-/// remove most of that error. The target, DVR ≥ 350, is not reached yet: the
-/// measured DVR is printed (see the README).
+/// few particles are; deforming the events along the predictor's affine paths (later passes,
+/// the last one repeated) must remove most of that error. The target, DVR ≥ 350, is
+/// not reached: with the exact (true) predictor the last pass itself gives RMS ≈ 0.03 px/ms
+/// here, about what both estimators give for a uniform flow oblique to the pixel grid
+/// (0.02–0.03 px/ms), so the bound is the measured DVR (98 corrsum, 119 motion) less a margin.
+/// The truth is compared at each vector's window centre and field time (`assess`).
 #[test]
 fn turntable_event_deformation_removes_gradient_error() {
     let flow = "type = \"solid_body\"\ncentre = [127.5, 127.5]\nomega = 0.02";
     let (sim, events) = scenario(flow, "40ms", 12);
     let passes = [(64, 32), (32, 16)];
-    for (name, deformed, plain) in [
+    for (name, deformed, plain, min_dvr) in [
         (
             "corrsum",
             process_with(&corrsum(), &sim, &events, &passes, &FIELD_TIMES, true),
             process_with(&corrsum(), &sim, &events, &passes, &FIELD_TIMES, false),
+            90.0,
         ),
         (
             "motion",
             process_with(&motion(), &sim, &events, &passes, &FIELD_TIMES, true),
             process_with(&motion(), &sim, &events, &passes, &FIELD_TIMES, false),
+            105.0,
         ),
     ] {
         let (d, p) = (errors(&deformed, &sim), errors(&plain, &sim));
         println!("turntable ω = 0.02 rad/ms, 64→32 px, {name}, deformed: {d}");
         println!("turntable ω = 0.02 rad/ms, 64→32 px, {name}, not deformed: {p}");
         assert!(d.rms < 0.6 * p.rms, "{name}: deformed {d}\nplain {p}");
+        assert!(d.dvr() >= min_dvr, "{name}: DVR below {min_dvr}: {d}");
         assert!(d.valid_share() >= 0.95, "{name}: {d}");
     }
 }

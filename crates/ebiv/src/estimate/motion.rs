@@ -235,6 +235,27 @@ impl ContrastMaximization {
     }
 }
 
+/// Whole-pixel origin and size `[width, height]` of the box covering the window
+/// `[0, dims)` and every event (events outside it come from deformation); NaN coordinates are
+/// ignored. `(origin, dims)` when all events lie inside the window.
+fn event_extent(x: &[f32], y: &[f32], dims: [u32; 2]) -> ([f32; 2], [u32; 2]) {
+    let span = |v: &[f32], size: u32| {
+        let (lo, hi) = v
+            .iter()
+            .filter(|a| a.is_finite())
+            .fold((0f32, size as f32 - 1.0), |(lo, hi), &a| {
+                (lo.min(a), hi.max(a))
+            });
+        let origin = lo.floor();
+        // Bounded by the deformation's largest strain; clamp anyway so the canvas stays finite.
+        let extent = (hi - origin + 1.0).ceil().clamp(size as f32, 1e6) as u32;
+        (origin, extent)
+    };
+    let (ox, wx) = span(x, dims[0]);
+    let (oy, wy) = span(y, dims[1]);
+    ([ox, oy], [wx, wy])
+}
+
 impl Estimator for ContrastMaximization {
     type Scratch = MotionScratch;
 
@@ -276,8 +297,12 @@ impl Estimator for ContrastMaximization {
         ev.x.clear();
         ev.y.clear();
         ev.t.clear();
-        ev.x.extend_from_slice(&g.x);
-        ev.y.extend_from_slice(&g.y);
+        // Deformed events may lie outside the window: the canvas covers their bounding box,
+        // moved by whole pixels (the objective does not change under such a shift).
+        let dims = [window.width, window.height];
+        let (origin, extent) = event_extent(&g.x, &g.y, dims);
+        ev.x.extend(g.x.iter().map(|&x| x - origin[0]));
+        ev.y.extend(g.y.iter().map(|&y| y - origin[1]));
         let shift = match self.params.t_ref {
             ReferenceTime::SlabCentre => 0.0,
             ReferenceTime::MeanEventTime => g.t.iter().map(|&t| t as f64).sum::<f64>() / n as f64,
@@ -287,10 +312,10 @@ impl Estimator for ContrastMaximization {
         let predictor = predictor
             .map(|p| p.velocity)
             .filter(|p| p[0].is_finite() && p[1].is_finite());
-        let dims = [window.width, window.height];
         let search = Search {
             events: &scratch.events,
             window: dims,
+            extent,
             centre: predictor.unwrap_or([0.0, 0.0]),
             range: self.search_range(dims, predictor.is_some()),
             params: &self.params,
@@ -338,5 +363,20 @@ impl Estimator for ContrastMaximization {
             ("min_events".into(), p.min_events.to_string()),
             ("fit".into(), format!("{:?}", p.fit)),
         ]
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::event_extent;
+
+    #[test]
+    fn event_extent_covers_deformed_events_by_whole_pixels() {
+        let (x, y) = ([0.0, 31.0, 5.5], [0.0, 31.0, 2.0]);
+        assert_eq!(event_extent(&x, &y, [32, 32]), ([0.0, 0.0], [32, 32]));
+        let (x, y) = ([-3.4, 40.2, f32::NAN], [0.0, 31.0, 1.0]);
+        let (origin, extent) = event_extent(&x, &y, [32, 32]);
+        assert_eq!(origin, [-4.0, 0.0]);
+        assert_eq!(extent, [46, 32]);
     }
 }

@@ -8,6 +8,7 @@
 //! centres its search (motion compensation) there. The last pass is validated; replacing its
 //! outliers is a separate, optional step.
 
+mod predictor;
 mod stream;
 mod times;
 
@@ -18,7 +19,7 @@ pub use stream::{
 pub use times::TimeSteps;
 
 use crate::error::Result;
-use crate::estimate::{Deformation, Estimator, Prediction};
+use crate::estimate::Estimator;
 use crate::event::{Geometry, PolaritySelection};
 use crate::field::{Status, VectorField};
 use crate::grid::{Grid, GridSpec, Mask};
@@ -38,13 +39,24 @@ pub struct ProcessParams {
     /// Replace the outliers of the last pass by interpolation (they keep their flag plus
     /// [`Status::REPLACED`]); between passes they are always replaced.
     pub replace_final: bool,
-    /// Gaussian smoothing of the predictor between passes, in grid nodes (0 = off).
+    /// Standard deviation, in grid nodes, of the Gaussian weights of the local linear fit
+    /// that gives a later pass its predicted velocity and gradient (smoothing the previous
+    /// pass; exact for linear fields up to the border). 0: bilinear interpolation of the
+    /// unsmoothed field and central differences.
     pub predictor_smoothing: f64,
     /// Pixels to leave out; windows whose centre is masked are not evaluated.
     pub mask: Option<Mask>,
     /// Deform the events of later passes by the predictor's local velocity gradient
     /// ([`crate::volume::Deformation`]), so that vectors refer to their window centre.
     pub deform: bool,
+    /// Times the last pass of a multi-pass run is repeated with its own result as the
+    /// predictor (PIVlab's "repeat last pass"; Thielicke & Sonntag 2021, J. Open Res. Softw.
+    /// 9:12): the gradient of a predictor on the final grid deforms the events better than
+    /// that of the coarser previous pass. 0 = off; single-pass runs never repeat.
+    pub last_pass_repeats: u32,
+    /// Stop repeating the last pass once the mean |Δv| of its vectors between two
+    /// repetitions is below this, px/ms.
+    pub repeat_tolerance: f64,
 }
 
 impl Default for ProcessParams {
@@ -57,6 +69,8 @@ impl Default for ProcessParams {
             predictor_smoothing: 1.0,
             mask: None,
             deform: true,
+            last_pass_repeats: 2,
+            repeat_tolerance: 0.005,
         }
     }
 }
@@ -97,7 +111,10 @@ pub struct FieldResult {
     pub replaced: usize,
 }
 
-/// Evaluate every pass of `params` on the events of `slab` around time `t0_us`.
+/// Evaluate every pass of `params` on the events of `slab` around time `t0_us`; with more
+/// than one pass, the last one is repeated (up to `last_pass_repeats` times) with the
+/// previous result as predictor until the mean change of its vectors falls below
+/// `repeat_tolerance`.
 pub fn process_slab<E: Estimator>(
     estimator: &E,
     slab: &Slab,
@@ -105,65 +122,59 @@ pub fn process_slab<E: Estimator>(
     grids: &[Grid],
     params: &ProcessParams,
 ) -> FieldResult {
+    let last_grid = grids.last().expect("grids is not empty");
+    let repeats = if grids.len() > 1 {
+        params.last_pass_repeats as usize
+    } else {
+        0
+    };
     let mut predictor: Option<VectorField> = None;
-    let mut last = None;
-    for (k, grid) in grids.iter().enumerate() {
+    let mut previous: Option<VectorField> = None;
+    let mut result = None;
+    for k in 0..grids.len() + repeats {
+        let grid = grids.get(k).unwrap_or(last_grid);
         let mut field = evaluate_pass(estimator, slab, t0_us, grid, params, predictor.as_ref());
         let validation = validate::validate(&mut field, &params.validation);
-        let is_last = k + 1 == grids.len();
-        if !is_last {
-            validate::replace_invalid(&mut field, &Default::default());
-            if params.predictor_smoothing > 0.0 {
-                validate::smooth(&mut field, params.predictor_smoothing);
+        let converged = previous
+            .as_ref()
+            .and_then(|p| mean_change(p, &field))
+            .is_some_and(|change| change < params.repeat_tolerance);
+        if k + 1 < grids.len() + repeats && !converged {
+            if k + 1 >= grids.len() {
+                previous = Some(field.clone());
             }
+            validate::replace_invalid(&mut field, &Default::default());
             predictor = Some(field);
-        } else {
-            let replaced = if params.replace_final {
-                validate::replace_invalid(&mut field, &Default::default())
-            } else {
-                0
-            };
-            last = Some(FieldResult {
-                field,
-                validation,
-                replaced,
-            });
+            continue;
         }
+        let replaced = if params.replace_final {
+            validate::replace_invalid(&mut field, &Default::default())
+        } else {
+            0
+        };
+        result = Some(FieldResult {
+            field,
+            validation,
+            replaced,
+        });
+        break;
     }
-    last.expect("grids is not empty")
+    result.expect("at least one pass ran")
 }
 
-/// The prediction of `field` at point `c`: velocity by bilinear interpolation and, with
-/// `deform`, the velocity gradient by central differences over one grid spacing.
-fn predict(field: &VectorField, c: [f64; 2], t0_us: i64, deform: bool) -> Option<Prediction> {
-    let velocity = field.sample(c[0], c[1])?;
-    let spacing = |axis: &[f64]| axis.windows(2).map(|w| w[1] - w[0]).next().unwrap_or(0.0);
-    let (hx, hy) = (spacing(&field.x), spacing(&field.y));
-    let gradient = (deform && hx > 0.0 && hy > 0.0).then(|| {
-        let xp = field.sample(c[0] + hx, c[1])?;
-        let xm = field.sample(c[0] - hx, c[1])?;
-        let yp = field.sample(c[0], c[1] + hy)?;
-        let ym = field.sample(c[0], c[1] - hy)?;
-        // The predictor is clamped at the grid edge; difference over the true distance.
-        let dx = (c[0] + hx).min(field.x[field.x.len() - 1]) - (c[0] - hx).max(field.x[0]);
-        let dy = (c[1] + hy).min(field.y[field.y.len() - 1]) - (c[1] - hy).max(field.y[0]);
-        (dx > 0.0 && dy > 0.0).then(|| {
-            [
-                [(xp[0] - xm[0]) / dx, (yp[0] - ym[0]) / dy],
-                [(xp[1] - xm[1]) / dx, (yp[1] - ym[1]) / dy],
-            ]
-        })
-    });
-    let deformation = gradient.flatten().map(|gradient| Deformation {
-        centre: c,
-        velocity,
-        gradient,
-        t0_us,
-    });
-    Some(Prediction {
-        velocity,
-        deformation,
-    })
+/// Mean |Δv| (px/ms) over the vectors valid in both fields of the same grid, `None` if none.
+fn mean_change(a: &VectorField, b: &VectorField) -> Option<f64> {
+    let (mut sum, mut n) = (0.0f64, 0usize);
+    for i in 0..a.len().min(b.len()) {
+        if a.status[i].is_valid() && b.status[i].is_valid() {
+            let d = ((a.u[i] - b.u[i]) as f64).hypot((a.v[i] - b.v[i]) as f64);
+            if d.is_finite() {
+                sum += d;
+                n += 1;
+            }
+        }
+    }
+    (n > 0).then(|| sum / n as f64)
 }
 
 /// One pass: every window of `grid` in parallel, each with its predictor.
@@ -185,7 +196,9 @@ fn evaluate_pass<E: Estimator>(
                 }
                 let window = grid.window(i);
                 let c = window.centre();
-                let guess = predictor.and_then(|p| predict(p, c, t0_us, params.deform));
+                let guess = predictor.and_then(|p| {
+                    predictor::predict(p, c, t0_us, params.deform, params.predictor_smoothing)
+                });
                 estimator.estimate(slab, &window, t0_us, guess.as_ref(), scratch)
             },
         )

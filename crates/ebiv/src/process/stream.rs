@@ -272,6 +272,14 @@ fn run_attributes<E: Estimator>(estimator: &E, params: &ProcessParams) -> Vec<(S
             "predictor_smoothing_nodes".to_string(),
             params.predictor_smoothing.to_string(),
         ),
+        ("deform".to_string(), params.deform.to_string()),
+        (
+            "last_pass_repeats".to_string(),
+            format!(
+                "{} (until mean change < {} px/ms)",
+                params.last_pass_repeats, params.repeat_tolerance
+            ),
+        ),
         (
             "replace_final".to_string(),
             params.replace_final.to_string(),

@@ -50,6 +50,8 @@ pub(crate) struct SearchScratch {
 pub(crate) struct Search<'a> {
     pub events: &'a Events,
     pub window: [u32; 2],
+    /// Size of the box `[0, extent)` holding every event (at least the window), px.
+    pub extent: [u32; 2],
     pub centre: [f64; 2],
     /// Half-width of the search range, px/ms.
     pub range: f64,
@@ -84,7 +86,7 @@ impl Search<'_> {
             self.centre[1].abs() + limit as f64 * unit,
         ];
         let shift = [max_speed[0] * t_max, max_speed[1] * t_max];
-        let fine_canvas = Canvas::covering(self.window, shift, 1.0, self.fine);
+        let fine_canvas = Canvas::covering(self.extent, shift, 1.0, self.fine);
         if fine_canvas.width.max(fine_canvas.height) > 16_384 {
             return None;
         }
@@ -97,7 +99,7 @@ impl Search<'_> {
                 (fine_canvas, self.fine)
             } else {
                 (
-                    Canvas::covering(self.window, shift, bin(l), self.coarse),
+                    Canvas::covering(self.extent, shift, bin(l), self.coarse),
                     self.coarse,
                 )
             }
