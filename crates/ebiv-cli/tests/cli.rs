@@ -1,38 +1,8 @@
 //! The `ebiv` binary end to end: what a user types, what they get.
 
-use std::path::PathBuf;
-use std::process::{Command, Output};
+mod common;
 
-fn ebiv(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_ebiv"))
-        .args(args)
-        .output()
-        .expect("run ebiv")
-}
-
-fn data(name: &str) -> Option<PathBuf> {
-    let dir = std::env::var_os("EBIV_TEST_DATA")
-        .map(PathBuf::from)
-        .unwrap_or_else(|| PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../../shared/data"));
-    let path = dir.join(name);
-    if path.is_file() {
-        Some(path)
-    } else {
-        eprintln!(
-            "notice: {} not found (set EBIV_TEST_DATA); skipping",
-            path.display()
-        );
-        None
-    }
-}
-
-fn stdout(o: &Output) -> String {
-    String::from_utf8_lossy(&o.stdout).into_owned()
-}
-
-fn stderr(o: &Output) -> String {
-    String::from_utf8_lossy(&o.stderr).into_owned()
-}
+use common::{data, ebiv, stderr, stdout};
 
 #[test]
 fn info_json_reports_counts_and_header() {

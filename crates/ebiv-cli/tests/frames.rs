@@ -1,35 +1,9 @@
 //! `ebiv frames` end to end: frames rebuilt from a real recording, and pulse detection
 //! refusing a recording made in continuous light.
 
-use std::path::PathBuf;
-use std::process::{Command, Output};
+mod common;
 
-fn ebiv(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_ebiv"))
-        .args(args)
-        .output()
-        .expect("run ebiv")
-}
-
-fn data(name: &str) -> Option<PathBuf> {
-    let dir = std::env::var_os("EBIV_TEST_DATA")
-        .map(PathBuf::from)
-        .unwrap_or_else(|| PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../../shared/data"));
-    let path = dir.join(name);
-    if path.is_file() {
-        Some(path)
-    } else {
-        eprintln!(
-            "notice: {} not found (set EBIV_TEST_DATA); skipping",
-            path.display()
-        );
-        None
-    }
-}
-
-fn stderr(o: &Output) -> String {
-    String::from_utf8_lossy(&o.stderr).into_owned()
-}
+use common::{data, ebiv, stderr};
 
 #[test]
 fn wall_flow_frames_are_numbered_images_with_an_index() {
