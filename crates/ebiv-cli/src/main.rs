@@ -33,7 +33,8 @@ enum Command {
     Render(cmd::render::RenderArgs),
     /// Rebuild image frames from events (for PIV or inspection), optionally one per light pulse.
     Frames(cmd::frames::FramesArgs),
-    /// Measure velocity fields from a recording: sum of correlation or motion compensation.
+    /// Measure velocity fields: sum of correlation, motion compensation, PIV of event frames or
+    /// image pairs, pulsed EBIV.
     Process(Box<cmd::process::ProcessArgs>),
     /// Write a commented configuration file for `ebiv process --config`.
     Init(cmd::process::InitArgs),

@@ -7,8 +7,9 @@
 //!
 //! Layers (lowest first): data types ([`event`], [`field`], [`grid`]), file input/output
 //! ([`io`]) and simulation ([`sim`]), tiled time slabs ([`volume`]), window estimators
-//! ([`estimate`]), validation ([`validate`]), field processing ([`process`]), outputs
-//! ([`export`], [`render`]).
+//! ([`estimate`]), validation ([`validate`]), field processing ([`process`]), image frames read
+//! from files or rebuilt from events and pulse timing ([`frame`]), cross-correlation PIV on
+//! frames and pulsed EBIV ([`piv`]), outputs ([`export`], [`render`]).
 
 pub mod assess;
 pub mod error;

@@ -10,9 +10,11 @@ use ebiv::estimate::corrsum::{CorrSumParams, SumOfCorrelation};
 use ebiv::estimate::motion::{ContrastMaximization, MotionParams};
 use ebiv::estimate::Estimator;
 use ebiv::field::FieldSeries;
+use ebiv::frame::events::{FrameKind, FrameSpec};
 use ebiv::grid::GridSpec;
 use ebiv::io::{write, Format, ReadOptions};
-use ebiv::process::{process_recording, MemorySource, ProcessParams};
+use ebiv::piv::{piv_events, EventPivParams, FrameClock, PivParams};
+use ebiv::process::{process_recording, FieldDone, MemorySource, ProcessParams, RunSummary};
 use ebiv::render::{save_png, time_coded_image, upscale, vector_map, VectorMapStyle};
 use ebiv::sim::simulation::Simulation;
 use ebiv::{EventBuffer, PolaritySelection};
@@ -103,6 +105,24 @@ pub fn run(args: &DemoArgs) -> Result<(), ebiv::Error> {
     let motion = ContrastMaximization::new(MotionParams::default())?;
     measure(&corrsum, "corrsum", &sim, &events, &params, &args.output)?;
     measure(&motion, "motion", &sim, &events, &params, &args.output)?;
+    let piv = EventPivParams {
+        frames: FrameSpec {
+            kind: FrameKind::Count,
+            exposure_us: 1000,
+            polarity: PolaritySelection::Positive,
+            splat_sigma: 0.0,
+        },
+        clock: FrameClock::Regular { step_us: 2000 },
+        pairs: 3,
+        piv: PivParams {
+            passes: params.passes.clone(),
+            ..PivParams::default()
+        },
+    };
+    println!("  piv of four 1 ms count frames 2 ms apart per field, same windows:");
+    measure_with("piv", &sim, &events, &args.output, |source, on_field| {
+        piv_events(source, sim.geometry, &piv, &FIELD_TIMES, on_field)
+    })?;
     println!(
         "next: ebiv process {} --method motion --png figures    (ebiv process --help)",
         args.output.join("vortex.raw").display()
@@ -156,17 +176,34 @@ fn measure<E: Estimator>(
     params: &ProcessParams,
     dir: &Path,
 ) -> Result<ErrorStats, ebiv::Error> {
+    measure_with(name, sim, events, dir, |source, on_field| {
+        process_recording(
+            source,
+            sim.geometry,
+            estimator,
+            params,
+            &FIELD_TIMES,
+            on_field,
+        )
+    })
+}
+
+/// Run one method over the demo events (`run` gets the event source and the progress
+/// callback), write its field and figures, print its errors against the truth.
+fn measure_with(
+    name: &str,
+    sim: &Simulation,
+    events: &EventBuffer,
+    dir: &Path,
+    run: impl FnOnce(
+        &mut MemorySource,
+        &mut dyn FnMut(&FieldDone),
+    ) -> Result<(FieldSeries, RunSummary), ebiv::Error>,
+) -> Result<ErrorStats, ebiv::Error> {
     let started = Instant::now();
     let bar = count_bar(FIELD_TIMES.len() as u64, name);
     let mut source = MemorySource::new(events);
-    let (mut series, _) = process_recording(
-        &mut source,
-        sim.geometry,
-        estimator,
-        params,
-        &FIELD_TIMES,
-        &mut |d| bar.set_position(d.done as u64),
-    )?;
+    let (mut series, _) = run(&mut source, &mut |d| bar.set_position(d.done as u64))?;
     bar.finish_and_clear();
     let seconds = started.elapsed().as_secs_f64();
     series.attributes.push((

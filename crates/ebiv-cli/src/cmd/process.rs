@@ -7,7 +7,8 @@ use crate::input::InputArgs;
 use clap::Args;
 use std::path::PathBuf;
 
-/// Measure velocity fields from an event recording (Willert & Klinner 2022).
+/// Measure velocity fields from an event recording (Willert & Klinner 2022), or by PIV from
+/// image pairs (`--method piv --images A B`).
 ///
 /// Every flag is also a key of the configuration file (`ebiv init` writes one with all of
 /// them, commented); flags override the file. Durations take units (10ms, 250us, 1.5s),
