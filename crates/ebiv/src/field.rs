@@ -243,7 +243,7 @@ impl VectorField {
 
 /// Indices of the two axis nodes around `p` and the fractional position between them,
 /// clamped at the ends of the (ascending) axis.
-fn bracket(axis: &[f64], p: f64) -> (usize, usize, f64) {
+pub(crate) fn bracket(axis: &[f64], p: f64) -> (usize, usize, f64) {
     let last = axis.len() - 1;
     if last == 0 || p <= axis[0] {
         return (0, 0, 0.0);

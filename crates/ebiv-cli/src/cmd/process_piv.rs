@@ -3,8 +3,8 @@
 
 use super::process_config::ProcessConfig;
 use super::process_run::{
-    describe_passes, field_figure, load_mask, plan_fields, series_histograms, write_series_figures,
-    Method, Planned, Settings,
+    describe_passes, finish_recording_run, load_mask, plan_fields, series_histograms,
+    write_series_figures, FieldProgress, Method, Planned, Settings,
 };
 use crate::progress::count_bar;
 use ebiv::estimate::peak::SubPixelFit;
@@ -17,7 +17,6 @@ use ebiv::piv::{
     piv_ensemble, piv_events, CorrelationKind, DeformationMode, EventPivParams, FrameClock,
     Interpolation, PivParams,
 };
-use ebiv::process::FieldDone;
 use ebiv::render::{save_png, vector_map, write_gif, VectorMapStyle};
 use ebiv::validate::ValidationParams;
 use ebiv::{Error, EventBuffer, PolaritySelection};
@@ -459,44 +458,13 @@ pub fn run_events(s: &Settings, options: &ReadOptions) -> Result<(), Error> {
     if let Some(dir) = &s.png {
         std::fs::create_dir_all(dir).map_err(|e| Error::io(dir, e))?;
     }
-    let bar = count_bar(times.len() as u64, "fields");
     let started = Instant::now();
-    let mut figures = Vec::new();
-    let mut figure_error = None;
-    let mut on_field = |d: &FieldDone| {
-        bar.set_position(d.done as u64);
-        if let (Some(dir), None) = (&s.png, &figure_error) {
-            let figure = field_figure(d, g, s, (before, after));
-            let path = dir.join(format!("field_{:04}.png", d.done - 1));
-            if let Err(e) = save_png(&figure, &path) {
-                figure_error = Some(e);
-            } else if figures.len() < 200 {
-                figures.push(figure);
-            }
-        }
-    };
-    let (mut series, summary) = piv_events(&mut reader, g, &params, &times, &mut on_field)?;
-    bar.finish_and_clear();
-    if let Some(e) = figure_error {
-        return Err(e);
-    }
-    let seconds = started.elapsed().as_secs_f64();
-    super::print_report_summary(&reader.report());
-    series.calibration = s.calibration;
-    series
-        .attributes
-        .push(("source".into(), s.input.display().to_string()));
-    ebiv::export::write_field(&series, &s.output)?;
-    println!(
-        "{} vectors in {} field(s), {:.1} % valid ({} flagged by validation), in {:.2} s ({:.1} M events/s read)",
-        summary.vectors,
-        summary.fields,
-        100.0 * summary.valid as f64 / summary.vectors.max(1) as f64,
-        summary.flagged,
-        seconds,
-        summary.events_read as f64 / seconds / 1e6,
-    );
-    println!("wrote {}", s.output.display());
+    let mut progress = FieldProgress::new(s, g, times.len(), (before, after));
+    let (mut series, summary) = piv_events(&mut reader, g, &params, &times, &mut |d| {
+        progress.on_field(d)
+    })?;
+    let figures = progress.finish()?;
+    finish_recording_run(s, &mut series, &summary, started, &reader.report())?;
     if let Some(dir) = &s.png {
         write_series_figures(&series, dir, s, figures)?;
     }

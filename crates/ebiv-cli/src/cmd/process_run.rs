@@ -11,7 +11,9 @@ use ebiv::field::{Calibration, FieldSeries};
 use ebiv::filter::Roi;
 use ebiv::grid::{GridSpec, Mask};
 use ebiv::io::ReadOptions;
-use ebiv::process::{process_recording, scan_extent, FieldDone, ProcessParams, TimeSteps};
+use ebiv::process::{
+    process_recording, scan_extent, FieldDone, ProcessParams, RunSummary, TimeSteps,
+};
 use ebiv::render::{
     save_png, time_coded_image, valid_components, vector_map, velocity_histograms, write_gif,
     HistogramStyle, VectorMapStyle,
@@ -363,35 +365,89 @@ fn execute<E: Estimator>(s: &Settings, options: &ReadOptions, estimator: &E) -> 
     if let Some(dir) = &s.png {
         std::fs::create_dir_all(dir).map_err(|e| Error::io(dir, e))?;
     }
-    let bar = count_bar(times.len() as u64, "fields");
     let started = Instant::now();
-    let mut frames = Vec::new();
-    let mut figure_error = None;
-    let mut on_field = |d: &FieldDone| {
-        bar.set_position(d.done as u64);
-        if let (Some(dir), None) = (&s.png, &figure_error) {
-            let frame = field_figure(d, g, s, estimator.time_extent_us());
+    let mut progress = FieldProgress::new(s, g, times.len(), estimator.time_extent_us());
+    let (mut series, summary) =
+        process_recording(&mut reader, g, estimator, &params, &times, &mut |d| {
+            progress.on_field(d)
+        })?;
+    let frames = progress.finish()?;
+    finish_recording_run(s, &mut series, &summary, started, &reader.report())?;
+    if let Some(dir) = &s.png {
+        write_series_figures(&series, dir, s, frames)?;
+    }
+    Ok(())
+}
+
+/// Progress bar and per-field figures of a run over a recording: one vector map per field
+/// (`--png`), the first [`MAX_GIF_FRAMES`] kept for the animation.
+pub struct FieldProgress<'a> {
+    settings: &'a Settings,
+    geometry: Geometry,
+    extent_us: (i64, i64),
+    bar: indicatif::ProgressBar,
+    figures: Vec<image::RgbImage>,
+    error: Option<Error>,
+}
+
+impl<'a> FieldProgress<'a> {
+    /// For `fields` fields whose events span `extent_us` around their times.
+    pub fn new(
+        settings: &'a Settings,
+        geometry: Geometry,
+        fields: usize,
+        extent_us: (i64, i64),
+    ) -> Self {
+        FieldProgress {
+            settings,
+            geometry,
+            extent_us,
+            bar: count_bar(fields as u64, "fields"),
+            figures: Vec::new(),
+            error: None,
+        }
+    }
+
+    /// Advance the bar and draw the field (the first failure to write stops the drawing).
+    pub fn on_field(&mut self, d: &FieldDone) {
+        self.bar.set_position(d.done as u64);
+        if let (Some(dir), None) = (&self.settings.png, &self.error) {
+            let figure = field_figure(d, self.geometry, self.settings, self.extent_us);
             let path = dir.join(format!("field_{:04}.png", d.done - 1));
-            if let Err(e) = save_png(&frame, &path) {
-                figure_error = Some(e);
-            } else if frames.len() < MAX_GIF_FRAMES {
-                frames.push(frame);
+            if let Err(e) = save_png(&figure, &path) {
+                self.error = Some(e);
+            } else if self.figures.len() < MAX_GIF_FRAMES {
+                self.figures.push(figure);
             }
         }
-    };
-    let (mut series, summary) =
-        process_recording(&mut reader, g, estimator, &params, &times, &mut on_field)?;
-    bar.finish_and_clear();
-    if let Some(e) = figure_error {
-        return Err(e);
     }
+
+    /// Clear the bar; the figures for the animation, or the first error.
+    pub fn finish(self) -> Result<Vec<image::RgbImage>, Error> {
+        self.bar.finish_and_clear();
+        match self.error {
+            Some(e) => Err(e),
+            None => Ok(self.figures),
+        }
+    }
+}
+
+/// After a run over a recording: report dropped input, attach calibration and source,
+/// write the series and print the summary line (vectors, valid share, time, throughput).
+pub fn finish_recording_run(
+    s: &Settings,
+    series: &mut FieldSeries,
+    summary: &RunSummary,
+    started: Instant,
+    report: &ebiv::io::DecodeReport,
+) -> Result<(), Error> {
     let seconds = started.elapsed().as_secs_f64();
-    super::print_report_summary(&reader.report());
+    super::print_report_summary(report);
     series.calibration = s.calibration;
     series
         .attributes
         .push(("source".into(), s.input.display().to_string()));
-    ebiv::export::write_field(&series, &s.output)?;
+    ebiv::export::write_field(series, &s.output)?;
     println!(
         "{} vectors in {} field(s), {:.1} % valid ({} flagged by validation), in {:.2} s ({:.1} M events/s read, {:.0} vectors/s)",
         summary.vectors,
@@ -403,9 +459,6 @@ fn execute<E: Estimator>(s: &Settings, options: &ReadOptions, estimator: &E) -> 
         summary.vectors as f64 / seconds
     );
     println!("wrote {}", s.output.display());
-    if let Some(dir) = &s.png {
-        write_series_figures(&series, dir, s, frames)?;
-    }
     Ok(())
 }
 

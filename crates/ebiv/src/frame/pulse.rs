@@ -781,25 +781,7 @@ pub fn pulse_frame_starts(timing: &PulseTiming, t_start: i64, t_end: i64) -> Vec
 mod tests {
     use super::*;
 
-    /// SplitMix64, for reproducible synthetic event lists.
-    struct Rng(u64);
-
-    impl Rng {
-        fn next(&mut self) -> u64 {
-            self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
-            let mut z = self.0;
-            z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-            z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-            z ^ (z >> 31)
-        }
-        fn uniform(&mut self) -> f64 {
-            (self.next() >> 11) as f64 / (1u64 << 53) as f64
-        }
-        fn normal(&mut self) -> f64 {
-            let (u, v) = (self.uniform().max(1e-300), self.uniform());
-            (-2.0 * u.ln()).sqrt() * (std::f64::consts::TAU * v).cos()
-        }
-    }
+    use crate::sim::rng::{Rng, Stream};
 
     /// A pulsed recording's event times: per pulse an ON burst `on_us` after the pulse edge
     /// and an OFF burst `off_us` after it (Gaussian jitter `jitter_us`), plus uniform
@@ -830,7 +812,7 @@ mod tests {
         }
 
         fn times(&self, seed: u64) -> Vec<i64> {
-            let mut rng = Rng(seed);
+            let mut rng = Rng::new(seed, Stream::Temporal, 0);
             let mut out = Vec::new();
             for k in 0..self.pulses {
                 let edge = self.first_edge + k as f64 * self.period;
@@ -901,7 +883,7 @@ mod tests {
             off_us: 110.0,
             ..Train::new(period, 400)
         };
-        let mut rng = Rng(3);
+        let mut rng = Rng::new(3, Stream::Temporal, 0);
         let mut times: Vec<i64> = train
             .times(11)
             .into_iter()
@@ -932,7 +914,7 @@ mod tests {
         let period = 333.4;
         let train = Train::new(period, 200);
         let times = train.times(5);
-        let mut rng = Rng(9);
+        let mut rng = Rng::new(9, Stream::Temporal, 0);
         let triggers: Vec<Trigger> = (0..200)
             .filter(|k| k % 37 != 5) // a few edges missing
             .flat_map(|k| {
@@ -992,7 +974,7 @@ mod tests {
 
     #[test]
     fn continuous_light_and_too_little_data_are_errors() {
-        let mut rng = Rng(1);
+        let mut rng = Rng::new(1, Stream::Temporal, 0);
         let mut steady: Vec<i64> = (0..30_000).map(|_| (1e6 * rng.uniform()) as i64).collect();
         steady.sort_unstable();
         let e = detect_pulses(&steady, &[], None).unwrap_err().to_string();

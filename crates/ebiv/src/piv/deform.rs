@@ -57,19 +57,10 @@ pub struct DenseField {
 /// Node indices and weight of a pixel coordinate on an ascending axis, clamped at the ends
 /// (constant extrapolation beyond the outermost nodes).
 fn axis_weights(axis: &[f64], n: usize) -> Vec<(usize, usize, f32)> {
-    let last = axis.len() - 1;
     (0..n)
         .map(|p| {
-            let p = p as f64;
-            if last == 0 || p <= axis[0] {
-                return (0, 0, 0.0);
-            }
-            if p >= axis[last] {
-                return (last, last, 0.0);
-            }
-            let hi = axis.partition_point(|&a| a <= p).min(last);
-            let lo = hi - 1;
-            (lo, hi, ((p - axis[lo]) / (axis[hi] - axis[lo])) as f32)
+            let (lo, hi, f) = crate::field::bracket(axis, p as f64);
+            (lo, hi, f as f32)
         })
         .collect()
 }

@@ -7,6 +7,7 @@
 //! there (the central-difference convention of symmetric window deformation).
 
 use crate::frame::Frame;
+use crate::sim::rng::{Rng, Stream};
 use libm::erf;
 use serde::{Deserialize, Serialize};
 
@@ -44,31 +45,6 @@ impl Default for ParticleImageParams {
             noise: 0.0,
             bits: 0,
         }
-    }
-}
-
-/// A small deterministic generator (SplitMix64), so pairs depend only on the seed.
-struct Rng(u64);
-
-impl Rng {
-    fn next_u64(&mut self) -> u64 {
-        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
-        let mut z = self.0;
-        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-        z ^ (z >> 31)
-    }
-
-    /// Uniform in [0, 1).
-    fn uniform(&mut self) -> f64 {
-        (self.next_u64() >> 11) as f64 / (1u64 << 53) as f64
-    }
-
-    /// Standard normal (Box–Muller).
-    fn normal(&mut self) -> f64 {
-        let u1 = self.uniform().max(1e-300);
-        let u2 = self.uniform();
-        (-2.0 * u1.ln()).sqrt() * (std::f64::consts::TAU * u2).cos()
     }
 }
 
@@ -132,7 +108,7 @@ pub fn particle_image_pair(
     displacement: impl Fn(f64, f64) -> [f64; 2],
     seed: u64,
 ) -> (Frame, Frame) {
-    let mut rng = Rng(seed ^ 0x05EE_D0F1_A6E5);
+    let mut rng = Rng::new(seed, Stream::Seeding, 0x5EED);
     let margin = 16.0;
     let (w, h) = (params.width as f64, params.height as f64);
     let area = (w + 2.0 * margin) * (h + 2.0 * margin);
