@@ -321,6 +321,41 @@ fn masked_windows_are_flagged_and_bad_input_is_an_error() {
     assert!(f.status[far].is_valid());
     assert!((f.u[far] - 1.0).abs() < 0.1);
 
+    // Multi-pass with a mask edge between grid nodes: the masked first-pass nodes must not
+    // spoil the predictor of the unmasked windows beside the mask.
+    let mut masked = vec![false; 128 * 128];
+    for row in masked.chunks_mut(128) {
+        row[..40].fill(true);
+    }
+    let p = PivParams {
+        mask: Some(Mask {
+            width: 128,
+            height: 128,
+            masked,
+        }),
+        ..params(&[64, 32])
+    };
+    let out = piv_pair(&a, &b, &p).unwrap();
+    let f = &out.field;
+    for (c, &x) in f.x.iter().enumerate() {
+        for r in 0..f.height() {
+            let i = f.index(r, c);
+            if x < 39.5 {
+                assert!(f.status[i].contains(Status::MASKED), "x {x}");
+            } else {
+                assert!(f.status[i].is_valid(), "x {x}: {:?}", f.status[i]);
+                assert!((f.u[i] - 1.0).abs() < 0.1 && (f.v[i] - 0.5).abs() < 0.1);
+                // event_count: non-zero pixels of the raw (not the deformed) first frame.
+                let (x0, y0) = ((x - 15.5) as u32, (f.y[r] - 15.5) as u32);
+                let raw = (y0..y0 + 32)
+                    .flat_map(|y| (x0..x0 + 32).map(move |x| (x, y)))
+                    .filter(|&(x, y)| a.get(x, y) != 0.0)
+                    .count();
+                assert_eq!(f.event_count[i] as usize, raw);
+            }
+        }
+    }
+
     let small = Frame::new(64, 64);
     let e = piv_pair(&a, &small, &multipass()).unwrap_err().to_string();
     assert!(e.contains("64×64") && e.contains("same size"), "{e}");

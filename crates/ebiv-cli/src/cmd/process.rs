@@ -126,10 +126,10 @@ pub struct ProcessArgs {
     /// Normalized median test threshold (Westerweel & Scarano 2005; default 2).
     #[arg(long)]
     pub median_threshold: Option<f64>,
-    /// Normalized median test ε in px/ms (default 0.1).
+    /// Normalized median test ε in px/ms (default 0.1); in px for image pairs without --dt.
     #[arg(long)]
     pub median_epsilon: Option<f64>,
-    /// Flag windows with fewer events.
+    /// Flag windows with fewer events (piv: fewer non-zero pixels in the first frame).
     #[arg(long)]
     pub min_events: Option<u32>,
     /// Flag correlation peaks whose first/second peak ratio is lower.

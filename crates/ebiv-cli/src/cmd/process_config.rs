@@ -154,8 +154,8 @@ method = "corrsum"              # corrsum (sum of correlation), motion (motion c
 
 # Interrogation windows and grid step, px; a list gives one pass each, largest first:
 # the first pass predicts the velocity for the next (window offset / search centre).
-window = [64, 40]
-step = [32, 20]
+window = [64, 40]               # piv default: [64, 32, 16]
+# step = [32, 20]               # default: window × (1 − overlap), overlap 0.5
 
 slab = "10ms"                   # time slab T of one field
 tau = "3ms"                     # corrsum: delay between the two sub-volumes
@@ -200,7 +200,7 @@ replace = false                 # replace outliers of the last pass by interpola
 
 [validation]
 median_threshold = 2.0          # normalized median test (Westerweel & Scarano 2005)
-median_epsilon = 0.1            # px/ms
+median_epsilon = 0.1            # px/ms (px for image pairs without dt)
 min_events = 0                  # flag windows with fewer events
 min_peak_ratio = 0.0            # flag correlation peaks below this first/second ratio
 # max_velocity = 20.0           # flag vectors faster than this, px/ms

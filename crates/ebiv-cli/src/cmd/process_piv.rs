@@ -23,6 +23,8 @@ use ebiv::{Error, EventBuffer, PolaritySelection};
 use std::path::Path;
 use std::time::Instant;
 
+/// Most memory the images of one run may take, bytes.
+const MAX_IMAGE_MEMORY_BYTES: u64 = 8 << 30;
 /// Events read at most to find the pulse timing.
 const PULSE_SCAN_EVENTS: usize = 4_000_000;
 /// Time read at most to find the pulse timing, µs.
@@ -195,7 +197,23 @@ pub fn run_images(s: &Settings) -> Result<(), Error> {
     let bar = count_bar(paths.len() as u64, "images");
     let mut frames = Vec::with_capacity(paths.len());
     for path in &paths {
-        frames.push(ebiv::frame::file::load(path)?);
+        let frame = ebiv::frame::file::load(path)?;
+        // All images are held; an ensemble also holds resampling coefficients and deformed
+        // copies of each.
+        let per_image = frame.data.len() as u64 * 4 * if p.ensemble { 3 } else { 1 };
+        if per_image * paths.len() as u64 > MAX_IMAGE_MEMORY_BYTES {
+            return Err(Error::parameter(
+                "images",
+                format!(
+                    "{} images of {}×{} px need about {} GiB; process fewer at a time",
+                    paths.len(),
+                    frame.width,
+                    frame.height,
+                    (per_image * paths.len() as u64) >> 30
+                ),
+            ));
+        }
+        frames.push(frame);
         bar.inc(1);
     }
     bar.finish_and_clear();
@@ -252,7 +270,6 @@ pub fn run_images(s: &Settings) -> Result<(), Error> {
     let mut series: Option<FieldSeries> = None;
     let mut figures = Vec::new();
     let (mut valid, mut vectors, mut flagged) = (0usize, 0usize, 0usize);
-    let step_us = p.dt_us.map(|d| if p.sequence { d } else { 2 * d });
     let quantity = if dt_ms.is_some() {
         Quantity::Velocity
     } else {
@@ -276,7 +293,7 @@ pub fn run_images(s: &Settings) -> Result<(), Error> {
         vectors += field.len();
         valid += field.status.iter().filter(|s| s.is_valid()).count();
         flagged += out.validation.valid_before - out.validation.valid_after;
-        let t = step_us.map(|st| k as i64 * st).unwrap_or(k as i64);
+        let t = k as i64;
         let series =
             series.get_or_insert_with(|| FieldSeries::on_grid(field.x.clone(), field.y.clone()));
         series.push(t, &field)?;
@@ -305,23 +322,31 @@ pub fn run_images(s: &Settings) -> Result<(), Error> {
     series.quantity = quantity;
     series.calibration = s.calibration;
     series.attributes = vec![
-        ("software".into(), format!("ebiv {}", env!("CARGO_PKG_VERSION"))),
+        (
+            "software".into(),
+            format!("ebiv {}", env!("CARGO_PKG_VERSION")),
+        ),
         ("method".into(), "piv of image pairs".into()),
         (
             "source".into(),
-            paths.iter().map(|p| p.display().to_string()).collect::<Vec<_>>().join(", "),
+            paths
+                .iter()
+                .map(|p| p.display().to_string())
+                .collect::<Vec<_>>()
+                .join(", "),
         ),
         (
             "pairs".into(),
-            pair_indices.iter().map(|(a, b)| format!("({},{})", a + 1, b + 1)).collect::<Vec<_>>().join(" "),
+            pair_indices
+                .iter()
+                .map(|(a, b)| format!("({},{})", a + 1, b + 1))
+                .collect::<Vec<_>>()
+                .join(" "),
         ),
         ("ensemble".into(), p.ensemble.to_string()),
         (
             "field_time".into(),
-            match p.dt_us {
-                Some(_) => "time of the first frame of the (first) pair, from the first image (microseconds)".into(),
-                None => "index of the field (no frame time given)".into(),
-            },
+            "index of the field (image pairs carry no time stamps)".into(),
         ),
     ];
     series.attributes.extend(ebiv::piv::attributes(&params));

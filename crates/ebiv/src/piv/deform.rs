@@ -5,10 +5,11 @@
 //! every pixel, and each frame is resampled there: symmetric (central-difference) deformation
 //! samples the first frame at `x − d(x)/2` and the second at `x + d(x)/2`, so particles of both
 //! frames land on their mid-way positions and the residual displacement refers to the window
-//! centre (Wereley & Meinhart 2001, Exp. Fluids 31:258). Resampling uses cubic B-splines
-//! (Unser, Aldroubi & Eden 1991, IEEE Trans. Signal Process. 39:277; Unser 1999, IEEE Signal
-//! Process. Mag. 16(6):22), whose interpolation error for particle images is far below that of
-//! bilinear resampling (Astarita & Cardone 2005, Exp. Fluids 38:233), or bilinearly.
+//! centre (Wereley & Meinhart 2001, Exp. Fluids 31:258). Resampling uses quintic (default) or
+//! cubic B-splines (Unser, Aldroubi & Eden 1991, IEEE Trans. Signal Process. 39:277; Unser
+//! 1999, IEEE Signal Process. Mag. 16(6):22), whose interpolation error for particle images is
+//! far below that of bilinear resampling (Astarita & Cardone 2005, Exp. Fluids 38:233), or
+//! bilinearly.
 
 use crate::field::VectorField;
 use crate::frame::Frame;
@@ -30,7 +31,7 @@ pub enum Interpolation {
 }
 
 impl Interpolation {
-    /// Parse `linear` or `cubic`.
+    /// Parse `linear`, `cubic` or `quintic`.
     pub fn parse(text: &str) -> Option<Self> {
         match text {
             "linear" | "bilinear" => Some(Interpolation::Linear),

@@ -57,23 +57,41 @@ pub struct FramePlan {
     pub t0_us: i64,
 }
 
+/// Most frame pairs per field.
+pub const MAX_PAIRS: u32 = 64;
+/// Most memory the frames of one field may take (frames, resampling coefficients, deformed
+/// copies), bytes.
+pub const MAX_FIELD_MEMORY_BYTES: u64 = 8 << 30;
+
 impl EventPivParams {
     /// Check every setting.
     pub fn check(&self) -> Result<()> {
         self.piv.check()?;
-        if self.pairs == 0 {
+        if self.pairs == 0 || self.pairs > MAX_PAIRS {
             return Err(Error::parameter(
                 "pairs",
-                "at least one frame pair per field",
+                format!(
+                    "{}: give 1 to {MAX_PAIRS} frame pairs per field",
+                    self.pairs
+                ),
             ));
         }
         match self.clock {
             FrameClock::Regular { step_us } => {
                 self.frames.check()?;
-                if step_us <= 0 {
+                if step_us <= 0 || step_us > i64::MAX / (2 * MAX_PAIRS as i64 + 2) {
                     return Err(Error::parameter(
                         "frame-step",
-                        format!("{step_us} µs: the time between frames must be positive"),
+                        format!("{step_us} µs: the time between frames must be positive and below years"),
+                    ));
+                }
+                if self.frames.exposure_us > step_us {
+                    return Err(Error::parameter(
+                        "exposure",
+                        format!(
+                            "{} µs is longer than the frame step of {step_us} µs: consecutive frames would share events, whose zero-displacement peak biases the field; shorten --exposure or lengthen --frame-step",
+                            self.frames.exposure_us
+                        ),
                     ));
                 }
             }
@@ -149,6 +167,18 @@ pub fn piv_events<S: BatchSource>(
     on_field: &mut dyn FnMut(&FieldDone),
 ) -> Result<(FieldSeries, RunSummary)> {
     params.check()?;
+    let pixels = geometry.width as u64 * geometry.height as u64;
+    let bytes = (params.pairs as u64 + 1) * pixels * 4 * 3;
+    if bytes > MAX_FIELD_MEMORY_BYTES {
+        return Err(Error::parameter(
+            "pairs",
+            format!(
+                "{} frame pairs of {geometry} need about {} GiB per field; use fewer pairs or a region of interest",
+                params.pairs,
+                bytes >> 30
+            ),
+        ));
+    }
     let mut plans: Vec<FramePlan> = times_us.iter().map(|&t| params.plan(t)).collect();
     plans.sort_by_key(|p| p.t0_us);
     plans.dedup_by_key(|p| p.t0_us);

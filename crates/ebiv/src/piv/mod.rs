@@ -332,7 +332,7 @@ pub fn piv_ensemble(pairs: &[(&Frame, &Frame)], params: &PivParams) -> Result<Pi
     for (k, grid) in grids.iter().enumerate() {
         let is_last = k + 1 == grids.len();
         let evaluations = if is_last {
-            1 + params.final_iterations
+            params.final_iterations.min(MAX_FINAL_ITERATIONS) + 1
         } else {
             1
         };
@@ -340,15 +340,15 @@ pub fn piv_ensemble(pairs: &[(&Frame, &Frame)], params: &PivParams) -> Result<Pi
         let mut change = f64::NAN;
         let mut field;
         let mut validation;
+        let mut previous: Option<VectorField> = None;
         loop {
             iterations += 1;
             field = evaluate_pass(pairs, &resamplers, grid, params, predictor.as_ref());
             validation = validate::validate(&mut field, &params.validation);
             let repeat = iterations < evaluations;
-            if let Some(p) = predictor
-                .as_ref()
-                .filter(|p| p.x == field.x && p.y == field.y)
-            {
+            // Successive raw results of the repeated pass (not the smoothed predictor, whose
+            // smoothing bias would never fall below the tolerance).
+            if let Some(p) = &previous {
                 change = rms_change(p, &field);
             }
             let converged = iterations > 1 && change < params.convergence_px;
@@ -358,6 +358,7 @@ pub fn piv_ensemble(pairs: &[(&Frame, &Frame)], params: &PivParams) -> Result<Pi
             let mut next = field.clone();
             prepare_predictor(&mut next, params);
             predictor = Some(next);
+            previous = Some(field);
         }
         reports.push(PassReport {
             window: grid.window,
@@ -385,11 +386,62 @@ pub fn piv_ensemble(pairs: &[(&Frame, &Frame)], params: &PivParams) -> Result<Pi
     unreachable!("the last pass returns")
 }
 
-/// Fill the gaps of a validated field and smooth it, so it can predict the next pass.
+/// Most repetitions of the last pass.
+pub const MAX_FINAL_ITERATIONS: u32 = 20;
+
+/// Fill the gaps of a validated field and smooth it, so it can predict the next pass. Nodes
+/// that stay empty — masked ones, or holes too large to inpaint — take the mean of their
+/// nearest filled neighbours, so the predictor has a value at every pixel (it is never
+/// output; the masked vectors of the result stay flagged).
 fn prepare_predictor(field: &mut VectorField, params: &PivParams) {
     validate::replace_invalid(field, &Default::default());
     if params.predictor_smoothing > 0.0 {
         validate::smooth(field, params.predictor_smoothing);
+    }
+    fill_everywhere(field);
+}
+
+/// Give every node without a finite value the mean of its finite 3 × 3 neighbours, pass by
+/// pass until all are filled; zero displacement if the field has no value at all.
+fn fill_everywhere(field: &mut VectorField) {
+    let (h, w) = (field.height(), field.width());
+    let finite = |f: &VectorField, i: usize| f.u[i].is_finite() && f.v[i].is_finite();
+    if !(0..field.len()).any(|i| finite(field, i)) {
+        field.u.fill(0.0);
+        field.v.fill(0.0);
+        return;
+    }
+    loop {
+        let mut fills = Vec::new();
+        for r in 0..h {
+            for c in 0..w {
+                let i0 = field.index(r, c);
+                if finite(field, i0) {
+                    continue;
+                }
+                let (mut su, mut sv, mut n) = (0.0f64, 0.0f64, 0u32);
+                for rr in r.saturating_sub(1)..(r + 2).min(h) {
+                    for cc in c.saturating_sub(1)..(c + 2).min(w) {
+                        let i = field.index(rr, cc);
+                        if finite(field, i) {
+                            su += field.u[i] as f64;
+                            sv += field.v[i] as f64;
+                            n += 1;
+                        }
+                    }
+                }
+                if n > 0 {
+                    fills.push((i0, (su / n as f64) as f32, (sv / n as f64) as f32));
+                }
+            }
+        }
+        if fills.is_empty() {
+            return;
+        }
+        for (i, u, v) in fills {
+            field.u[i] = u;
+            field.v[i] = v;
+        }
     }
 }
 
@@ -466,7 +518,8 @@ fn evaluate_pass(
                         d.at(c[0], c[1])
                     })
                     .unwrap_or([0.0, 0.0]);
-                correlate_window(&frames, &window, params, scratch, base)
+                let nonzero = pairs.iter().map(|(a, _)| count_nonzero(a, &window)).sum();
+                correlate_window(&frames, nonzero, &window, params, scratch, base)
             },
         )
         .collect();
@@ -504,17 +557,18 @@ impl WindowResult {
     }
 }
 
-/// Copy the window of `frame` into `out` with its mean removed; masked pixels count as the
-/// mean of the others. Returns the number of non-zero pixels.
-fn extract(frame: &Frame, window: &Window, mask: Option<&Mask>, out: &mut [f32]) -> u32 {
+/// Copy the window of `frame` into `out` with its mean removed; masked (and non-finite)
+/// pixels count as the mean of the others.
+fn extract(frame: &Frame, window: &Window, mask: Option<&Mask>, out: &mut [f32]) {
     let (w, h) = (window.width as usize, window.height as usize);
     let (x0, y0) = (window.x0 as usize, window.y0 as usize);
-    let (mut sum, mut n, mut nonzero) = (0.0f64, 0usize, 0u32);
+    let (mut sum, mut n) = (0.0f64, 0usize);
     for r in 0..h {
         let row = &frame.row((y0 + r) as u32)[x0..x0 + w];
         let dst = &mut out[r * w..(r + 1) * w];
         for (c, (d, &s)) in dst.iter_mut().zip(row).enumerate() {
-            let masked = mask.is_some_and(|m| m.is_masked((x0 + c) as i64, (y0 + r) as i64));
+            let masked = !s.is_finite()
+                || mask.is_some_and(|m| m.is_masked((x0 + c) as i64, (y0 + r) as i64));
             if masked {
                 *d = f32::NAN;
                 continue;
@@ -522,20 +576,31 @@ fn extract(frame: &Frame, window: &Window, mask: Option<&Mask>, out: &mut [f32])
             *d = s;
             sum += s as f64;
             n += 1;
-            nonzero += (s != 0.0) as u32;
         }
     }
     let mean = if n > 0 { (sum / n as f64) as f32 } else { 0.0 };
     for d in out[..w * h].iter_mut() {
         *d = if d.is_nan() { 0.0 } else { *d - mean };
     }
-    nonzero
+}
+
+/// Non-zero pixels of `frame` inside `window` (for event frames: pixels with events).
+fn count_nonzero(frame: &Frame, window: &Window) -> u32 {
+    let (x0, w) = (window.x0 as usize, window.width as usize);
+    (0..window.height)
+        .map(|r| {
+            let row = &frame.row(window.y0 as u32 + r)[x0..x0 + w];
+            row.iter().filter(|&&v| v != 0.0).count() as u32
+        })
+        .sum()
 }
 
 /// Correlate one window over all frame pairs and locate the summed plane's peak; the
 /// displacement is `base` (the predictor at the window centre) plus the residual.
+/// `nonzero` is the window's count of non-zero pixels in the raw first frames.
 fn correlate_window(
     frames: &[(&Frame, &Frame)],
+    nonzero: u32,
     window: &Window,
     params: &PivParams,
     scratch: &mut Scratch,
@@ -545,9 +610,9 @@ fn correlate_window(
     scratch.plane.fill(0.0);
     let weight = 1.0 / frames.len() as f64;
     let mask = params.mask.as_ref();
-    let (mut nonzero, mut signal) = (0u32, false);
+    let mut signal = false;
     for (a, b) in frames {
-        nonzero += extract(a, window, mask, &mut scratch.a);
+        extract(a, window, mask, &mut scratch.a);
         extract(b, window, mask, &mut scratch.b);
         let energy =
             scratch

@@ -150,7 +150,11 @@ impl SlidingEvents {
         while !self.exhausted && self.window.t.last().is_none_or(|&t| t < end_us) {
             if source.next_batch(&mut self.batch)? {
                 self.events_read += self.batch.len() as u64;
-                self.window.extend_from(&self.batch);
+                // Batches wholly before the interval are not kept, so a late interval does
+                // not hold the recording before it.
+                if self.batch.t.last().is_some_and(|&t| t >= start_us) {
+                    self.window.extend_from(&self.batch);
+                }
             } else {
                 self.exhausted = true;
             }
