@@ -259,4 +259,22 @@ phase_us = 300.0
         (u - 1.5).abs() < 0.03 && (v + 0.5).abs() < 0.03,
         "({u}, {v})"
     );
+
+    // With --time, the pulses are found from the requested start on.
+    let out = ebiv(&[
+        "process",
+        recording.to_str().unwrap(),
+        "--method",
+        "pulsed",
+        "--window",
+        "64,32",
+        "--time",
+        "20ms:30ms:5ms",
+        "-o",
+        csv.to_str().unwrap(),
+    ]);
+    assert!(out.status.success(), "{}", stderr(&out));
+    let rows = read_csv(&csv);
+    assert!(!rows.is_empty());
+    assert!(rows.iter().filter(|r| r.4 == 0).count() as f64 >= 0.9 * rows.len() as f64);
 }

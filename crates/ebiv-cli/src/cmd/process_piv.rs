@@ -400,13 +400,21 @@ fn describe(p: &PivParams) -> String {
     .to_lowercase()
 }
 
-/// Find the pulse timing from the start of the recording (events of the selected polarity
-/// and trigger edges).
+/// Find the pulse timing from up to 2 s of the recording (events of the selected polarity
+/// and trigger edges), from the start of `--time` if given, else from the first event.
 fn detect_pulse_timing(
     s: &Settings,
     options: &ReadOptions,
 ) -> Result<ebiv::frame::pulse::PulseTiming, Error> {
     let mut reader = ebiv::io::open(&s.input, options)?;
+    if let Some(start) = s.time.0 {
+        let origin = if s.absolute_time {
+            0
+        } else {
+            super::first_event_time(&s.input, options)?.unwrap_or(0)
+        };
+        reader.skip_to(origin + start)?;
+    }
     let mut batch = EventBuffer::new();
     let (mut times, mut triggers) = (Vec::new(), Vec::new());
     let mut first = None;
