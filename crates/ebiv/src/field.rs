@@ -172,6 +172,14 @@ impl VectorField {
         }
     }
 
+    /// Multiply every vector by `factor` (e.g. displacements in px by 1/Δt in ms to get
+    /// px/ms); NaN stays NaN.
+    pub fn scale(&mut self, factor: f64) {
+        for w in self.u.iter_mut().chain(self.v.iter_mut()) {
+            *w = (*w as f64 * factor) as f32;
+        }
+    }
+
     /// Number of columns.
     pub fn width(&self) -> usize {
         self.x.len()

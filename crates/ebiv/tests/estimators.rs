@@ -2,6 +2,8 @@
 //! uniform flow, solid-body rotation, a Lamb–Oseen vortex, multi-pass against single pass.
 //! Bounds are the issue's targets; each test prints its measured errors.
 
+mod common;
+
 use ebiv::assess::{field_errors, ErrorStats};
 use ebiv::estimate::corrsum::{CorrSumParams, SumOfCorrelation};
 use ebiv::estimate::motion::{ContrastMaximization, MotionParams};
@@ -9,32 +11,12 @@ use ebiv::estimate::Estimator;
 use ebiv::field::FieldSeries;
 use ebiv::grid::GridSpec;
 use ebiv::process::{process_recording, MemorySource, ProcessParams};
-use ebiv::sim::scenario::Scenario;
 use ebiv::sim::simulation::Simulation;
 use ebiv::EventBuffer;
 
 /// A 256 × 256 gen4 scene of `duration` with the given `[flow]` table.
 fn scenario(flow: &str, duration: &str, seed: u64) -> (Simulation, EventBuffer) {
-    let text = format!(
-        r#"
-seed = {seed}
-duration = "{duration}"
-[sensor]
-width = 256
-height = 256
-preset = "gen4"
-[flow]
-{flow}
-[particles]
-density = 0.006
-diameter = 2.5
-brightness = 20.0
-"#
-    );
-    let scenario: Scenario = toml::from_str(&text).unwrap();
-    let sim = scenario.simulation().unwrap();
-    let events = sim.run(None, &|_| {}).unwrap().events;
-    (sim, events)
+    common::simulate_scene(flow, duration, "", seed)
 }
 
 fn process<E: Estimator>(

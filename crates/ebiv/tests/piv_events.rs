@@ -2,6 +2,8 @@
 //! same flow measured by `piv`, `corrsum` and `motion` agrees within the estimators' errors
 //! against the truth, and pulsed EBIV recovers the truth from one frame per light pulse.
 
+mod common;
+
 use ebiv::assess::{field_errors, ErrorStats};
 use ebiv::estimate::corrsum::{CorrSumParams, SumOfCorrelation};
 use ebiv::estimate::motion::{ContrastMaximization, MotionParams};
@@ -12,33 +14,12 @@ use ebiv::frame::pulse::detect_pulses;
 use ebiv::grid::GridSpec;
 use ebiv::piv::{piv_events, EventPivParams, FrameClock, PivParams};
 use ebiv::process::{process_recording, MemorySource, ProcessParams};
-use ebiv::sim::scenario::Scenario;
 use ebiv::sim::simulation::Simulation;
 use ebiv::{EventBuffer, PolaritySelection};
 
 /// A 256 × 256 gen4 scene with the given `[flow]` and extra TOML (e.g. illumination).
 fn scenario(flow: &str, extra: &str, seed: u64) -> (Simulation, EventBuffer) {
-    let text = format!(
-        r#"
-seed = {seed}
-duration = "40ms"
-[sensor]
-width = 256
-height = 256
-preset = "gen4"
-[flow]
-{flow}
-[particles]
-density = 0.006
-diameter = 2.5
-brightness = 20.0
-{extra}
-"#
-    );
-    let scenario: Scenario = toml::from_str(&text).unwrap();
-    let sim = scenario.simulation().unwrap();
-    let events = sim.run(None, &|_| {}).unwrap().events;
-    (sim, events)
+    common::simulate_scene(flow, "40ms", extra, seed)
 }
 
 const FIELD_TIMES: [i64; 3] = [15_000, 20_000, 25_000];

@@ -17,7 +17,7 @@ use ebiv::piv::{
     piv_ensemble, piv_events, CorrelationKind, DeformationMode, EventPivParams, FrameClock,
     Interpolation, PivParams,
 };
-use ebiv::render::{save_png, vector_map, write_gif, VectorMapStyle};
+use ebiv::render::{frame_image, save_png, vector_map, write_gif, VectorMapStyle};
 use ebiv::validate::ValidationParams;
 use ebiv::{Error, EventBuffer, PolaritySelection};
 use std::path::Path;
@@ -158,23 +158,6 @@ impl PivSettings {
     }
 }
 
-/// A grey frame as an RGB image for figures: values stretched so the 99.5th percentile of
-/// the non-zero pixels is white.
-fn frame_background(frame: &Frame) -> image::RgbImage {
-    let mut values: Vec<f32> = frame.data.iter().copied().filter(|v| *v > 0.0).collect();
-    let top = if values.is_empty() {
-        1.0
-    } else {
-        let k = ((values.len() as f64 * 0.995) as usize).min(values.len() - 1);
-        *values.select_nth_unstable_by(k, f32::total_cmp).1
-    };
-    let scale = if top > 0.0 { 255.0 / top } else { 1.0 };
-    image::RgbImage::from_fn(frame.width, frame.height, |x, y| {
-        let g = (frame.get(x, y) * scale).clamp(0.0, 255.0) as u8;
-        image::Rgb([g, g, g])
-    })
-}
-
 /// PIV of image pairs given by `--images`.
 pub fn run_images(s: &Settings) -> Result<(), Error> {
     let p = &s.piv;
@@ -245,8 +228,7 @@ pub fn run_images(s: &Settings) -> Result<(), Error> {
     // Validation ε and limits are in px/ms when a dt is given, else in px.
     let dt_ms = p.dt_us.map(|d| d as f64 / 1000.0);
     if let Some(dt) = dt_ms {
-        params.validation.median_epsilon *= dt;
-        params.validation.max_velocity = params.validation.max_velocity.map(|v| v * dt);
+        params = params.over_interval(dt);
     }
     let groups: Vec<Vec<(usize, usize)>> = if p.ensemble {
         vec![pair_indices.clone()]
@@ -286,9 +268,7 @@ pub fn run_images(s: &Settings) -> Result<(), Error> {
         let out = piv_ensemble(&pairs, &params)?;
         let mut field = out.field;
         if let Some(dt) = dt_ms {
-            for v in field.u.iter_mut().chain(field.v.iter_mut()) {
-                *v = (*v as f64 / dt) as f32;
-            }
+            field.scale(1.0 / dt);
         }
         vectors += field.len();
         valid += field.status.iter().filter(|s| s.is_valid()).count();
@@ -308,7 +288,7 @@ pub fn run_images(s: &Settings) -> Result<(), Error> {
                 units: quantity.units().0.into(),
                 ..VectorMapStyle::default()
             };
-            let figure = vector_map(&field, g, Some(&frame_background(&frames[a])), &style);
+            let figure = vector_map(&field, g, Some(&frame_image(&frames[a])), &style);
             save_png(&figure, &dir.join(format!("field_{k:04}.png")))?;
             if figures.len() < 200 {
                 figures.push(figure);

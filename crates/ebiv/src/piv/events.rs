@@ -11,7 +11,7 @@ use super::{piv_ensemble, PivParams};
 use crate::error::{Error, Result};
 use crate::event::Geometry;
 use crate::field::FieldSeries;
-use crate::frame::events::{build_frame_counted, FrameSpec};
+use crate::frame::events::{build_frame, FrameSpec};
 use crate::frame::pulse::PulseTiming;
 use crate::frame::Frame;
 use crate::process::{BatchSource, FieldDone, RunSummary, SlidingEvents};
@@ -144,15 +144,6 @@ impl EventPivParams {
         let end = plan.starts.last().copied().unwrap_or(0) + plan.exposure_us;
         (-plan.starts[0] + plan.t0_us, end - plan.t0_us)
     }
-
-    /// The PIV settings with validation limits converted from px/ms to px over `dt_us`.
-    fn piv_in_px(&self, dt_us: f64) -> PivParams {
-        let dt_ms = dt_us / 1000.0;
-        let mut p = self.piv.clone();
-        p.validation.median_epsilon *= dt_ms;
-        p.validation.max_velocity = p.validation.max_velocity.map(|v| v * dt_ms);
-        p
-    }
 }
 
 /// PIV of an event recording at the field times `times_us` (sorted, deduplicated; snapped to
@@ -205,16 +196,13 @@ pub fn piv_events<S: BatchSource>(
         let frames: Vec<Frame> = plan
             .starts
             .iter()
-            .map(|&s| build_frame_counted(events, geometry, s, &spec).0)
+            .map(|&s| build_frame(events, geometry, s, &spec))
             .collect();
         let pairs: Vec<(&Frame, &Frame)> = frames.windows(2).map(|w| (&w[0], &w[1])).collect();
-        let out = piv_ensemble(&pairs, &params.piv_in_px(plan.dt_us))?;
+        let dt_ms = plan.dt_us / 1000.0;
+        let out = piv_ensemble(&pairs, &params.piv.over_interval(dt_ms))?;
         let mut field = out.field;
-        let per_ms = 1000.0 / plan.dt_us;
-        for (u, v) in field.u.iter_mut().zip(field.v.iter_mut()) {
-            *u = (*u as f64 * per_ms) as f32;
-            *v = (*v as f64 * per_ms) as f32;
-        }
+        field.scale(1.0 / dt_ms);
         summary.fields += 1;
         summary.vectors += field.len();
         summary.valid += field.status.iter().filter(|s| s.is_valid()).count();
@@ -279,4 +267,65 @@ fn attributes(params: &EventPivParams) -> Vec<(String, String)> {
     ];
     a.extend(super::attributes(&params.piv));
     a
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::frame::pulse::PulseSource;
+
+    fn params(clock: FrameClock, pairs: u32) -> EventPivParams {
+        EventPivParams {
+            frames: FrameSpec {
+                exposure_us: 1000,
+                ..FrameSpec::default()
+            },
+            clock,
+            pairs,
+            piv: PivParams::default(),
+        }
+    }
+
+    #[test]
+    fn regular_frames_are_centred_on_the_field_time() {
+        let p = params(FrameClock::Regular { step_us: 2000 }, 3);
+        let plan = p.plan(10_000);
+        // Span 3·2000 + 1000 = 7000 µs around 10 000.
+        assert_eq!(plan.starts, vec![6500, 8500, 10_500, 12_500]);
+        assert_eq!(
+            (plan.t0_us, plan.exposure_us, plan.dt_us),
+            (10_000, 1000, 2000.0)
+        );
+        assert_eq!(p.time_extent_us(), (3500, 3500));
+    }
+
+    #[test]
+    fn pulsed_frames_snap_to_the_pulses() {
+        let timing = PulseTiming {
+            frequency_hz: 3000.0,
+            period_us: 1e6 / 3000.0,
+            offset_us: 100.0,
+            source: PulseSource::Triggers,
+            contrast: 1.0,
+            periods: 100,
+        };
+        let p = params(FrameClock::Pulsed(timing), 2);
+        let plan = p.plan(10_000);
+        let period = 1e6 / 3000.0;
+        for (k, &s) in plan.starts.iter().enumerate() {
+            let phase = (s as f64 - 100.0).rem_euclid(period);
+            assert!(phase < 0.6 || period - phase < 0.6, "frame {k} at {s}");
+        }
+        assert_eq!(plan.exposure_us, 333);
+        // Three frames: the field time is the centre of their span, near the request.
+        let centre = (plan.starts[0] as f64 + plan.starts[2] as f64 + period) / 2.0;
+        assert!((plan.t0_us as f64 - centre).abs() <= 1.0);
+        assert!((plan.t0_us - 10_000).abs() as f64 <= period / 2.0 + 1.0);
+        assert!(params(FrameClock::Regular { step_us: 500 }, 1)
+            .check()
+            .is_err());
+        assert!(params(FrameClock::Regular { step_us: 2000 }, 0)
+            .check()
+            .is_err());
+    }
 }

@@ -147,6 +147,15 @@ impl PivParams {
             .collect())
     }
 
+    /// These settings for frames `dt_ms` apart when the validation limits (ε, largest
+    /// velocity) are given in px/ms: converted to px of displacement, the engine's unit.
+    pub fn over_interval(&self, dt_ms: f64) -> PivParams {
+        let mut p = self.clone();
+        p.validation.median_epsilon *= dt_ms;
+        p.validation.max_velocity = p.validation.max_velocity.map(|v| v * dt_ms);
+        p
+    }
+
     /// Check that every parameter is in range.
     pub fn check(&self) -> Result<()> {
         if self.passes.is_empty() {

@@ -7,6 +7,7 @@ mod colormap;
 mod draw;
 mod event_image;
 pub mod font;
+mod frame_image;
 mod histogram;
 mod palette;
 mod rate_map;
@@ -15,6 +16,7 @@ mod vector_map;
 pub use animation::{series_animation, write_gif};
 pub use colormap::{inferno, time_code};
 pub use event_image::{time_coded_image, TimeCodedImage};
+pub use frame_image::frame_image;
 pub use histogram::{
     histogram, peak_locking_index, valid_components, velocity_histograms, Histogram, HistogramStyle,
 };

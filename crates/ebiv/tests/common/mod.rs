@@ -98,3 +98,35 @@ pub fn assert_matches_expected(events: &EventBuffer, exp: &serde_json::Value) {
         "canonical digest"
     );
 }
+
+/// Simulate a 256 × 256 `gen4` scene of `duration` (e.g. `"40ms"`) with the given `[flow]`
+/// table, seeding 0.006 particles/px of 2.5 px diameter, plus `extra` TOML (e.g. an
+/// `[illumination]` table); returns the simulation (for its truth) and the events.
+pub fn simulate_scene(
+    flow: &str,
+    duration: &str,
+    extra: &str,
+    seed: u64,
+) -> (ebiv::sim::simulation::Simulation, EventBuffer) {
+    let text = format!(
+        r#"
+seed = {seed}
+duration = "{duration}"
+[sensor]
+width = 256
+height = 256
+preset = "gen4"
+[flow]
+{flow}
+[particles]
+density = 0.006
+diameter = 2.5
+brightness = 20.0
+{extra}
+"#
+    );
+    let scenario: ebiv::sim::scenario::Scenario = toml::from_str(&text).unwrap();
+    let sim = scenario.simulation().unwrap();
+    let events = sim.run(None, &|_| {}).unwrap().events;
+    (sim, events)
+}
