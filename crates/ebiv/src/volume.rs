@@ -239,6 +239,23 @@ impl Slab {
         t_ref_us: i64,
         out: &mut WindowEvents,
     ) {
+        self.visit(window, t_from, t_to, t_ref_us, |x, y, t| {
+            out.x.push(x as f32);
+            out.y.push(y as f32);
+            out.t.push(t as f32);
+        });
+    }
+
+    /// Call `f(x, y, t)` for every event [`Slab::gather`] would append, without copying:
+    /// local column and row, time relative to `t_ref_us`.
+    pub fn visit(
+        &self,
+        window: &Window,
+        t_from: i64,
+        t_to: i64,
+        t_ref_us: i64,
+        mut f: impl FnMut(i64, i64, i64),
+    ) {
         let x_end = window.x0 + window.width as i64;
         let y_end = window.y0 + window.height as i64;
         let Some((tx0, tx1)) = self.tile_span(window.x0, x_end, self.tiles_x) else {
@@ -257,9 +274,7 @@ impl Slab {
                 for i in lo..hi {
                     let (x, y) = (self.x[i] as i64, self.y[i] as i64);
                     if x >= window.x0 && x < x_end && y >= window.y0 && y < y_end {
-                        out.x.push((x - window.x0) as f32);
-                        out.y.push((y - window.y0) as f32);
-                        out.t.push((self.t[i] - t_ref_us) as f32);
+                        f(x - window.x0, y - window.y0, self.t[i] - t_ref_us);
                     }
                 }
             }
@@ -296,29 +311,7 @@ impl Slab {
     /// Number of events inside `window` with time in `[t_from, t_to)`.
     pub fn count(&self, window: &Window, t_from: i64, t_to: i64) -> usize {
         let mut n = 0;
-        let x_end = window.x0 + window.width as i64;
-        let y_end = window.y0 + window.height as i64;
-        let (Some((tx0, tx1)), Some((ty0, ty1))) = (
-            self.tile_span(window.x0, x_end, self.tiles_x),
-            self.tile_span(window.y0, y_end, self.tiles_y),
-        ) else {
-            return 0;
-        };
-        for ty in ty0..=ty1 {
-            for tx in tx0..=tx1 {
-                let k = (ty * self.tiles_x + tx) as usize;
-                let r = self.tile_start[k]..self.tile_start[k + 1];
-                let times = &self.t[r.clone()];
-                let lo = r.start + times.partition_point(|&t| t < t_from);
-                let hi = r.start + times.partition_point(|&t| t < t_to);
-                n += (lo..hi)
-                    .filter(|&i| {
-                        let (x, y) = (self.x[i] as i64, self.y[i] as i64);
-                        x >= window.x0 && x < x_end && y >= window.y0 && y < y_end
-                    })
-                    .count();
-            }
-        }
+        self.visit(window, t_from, t_to, 0, |_, _, _| n += 1);
         n
     }
 

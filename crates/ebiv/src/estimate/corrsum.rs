@@ -28,14 +28,14 @@ mod voxels;
 use serde::{Deserialize, Serialize};
 
 use super::peak::{find_peak, SubPixelFit};
-use super::{gather_predicted, Estimator, Prediction, WindowEstimate};
+use super::{Estimator, Prediction, WindowEstimate};
 use crate::error::{Error, Result};
 use crate::field::Status;
 use crate::grid::Window;
-use crate::volume::{Slab, WindowEvents};
+use crate::volume::{Deformation, Slab, WindowEvents};
 use fit::refine_tilted;
 use fourier::Fourier;
-use voxels::{slice_statistics, PlaneShape, SliceStats, Voxeliser, Voxels};
+use voxels::{slice_statistics, Overlap, PlaneShape, SliceStats, Voxeliser, Voxels};
 
 /// How the correlation plane is computed; all kernels give the same plane.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
@@ -208,6 +208,15 @@ impl SumOfCorrelation {
         (self.params.slab_us + self.params.tau_us + 1) / 2
     }
 
+    /// Slices of the delay τ when it is a whole number of slices `T/N_T` (the reference
+    /// settings: τ = 3 ms = 6 slices of 0.5 ms), so that slice `z` of S2 is slice `z + k` of
+    /// a voxelisation of `[S1 start, S2 end)`.
+    fn delay_in_slices(&self) -> Option<usize> {
+        let p = &self.params;
+        let scaled = p.tau_us * p.slices as i64;
+        (scaled % p.slab_us == 0).then(|| (scaled / p.slab_us) as usize)
+    }
+
     /// Compute the normalised, summed correlation plane of `window`'s events around `t0_us`
     /// with the integer window offset `[s1, s2]` per axis (S1 window moved by `−s1`, S2 by
     /// `+s2`) into `scratch.plane`, and return its status before peak search.
@@ -223,25 +232,35 @@ impl SumOfCorrelation {
         let p = &self.params;
         let s1_start = t0_us - self.half_extent_us();
         let s2_start = s1_start + p.tau_us;
-        let windows = [
-            (window.shifted(-offsets[0][0], -offsets[0][1]), s1_start),
-            (window.shifted(offsets[1][0], offsets[1][1]), s2_start),
-        ];
         let count = p.weighting == Weighting::Count;
-        for (k, (w, start)) in windows.iter().enumerate() {
-            scratch.events.clear();
-            let times = (*start, start + p.slab_us, *start);
-            gather_predicted(slab, w, times, predictor, &mut scratch.events);
-            let out = if k == 0 {
-                &mut scratch.a
-            } else {
-                &mut scratch.b
-            };
-            scratch
-                .voxeliser
-                .run(&scratch.events, p.slab_us, p.slices, count, out);
+        let deformation = predictor.and_then(|p| p.deformation);
+        let slices = p.slices as usize;
+        // Without a window offset both sub-volumes cover the same pixels: one voxelisation of
+        // `[S1 start, S2 end)` serves both (S1 and S2 overlap by T − τ).
+        let shared = self.delay_in_slices().filter(|_| offsets == [[0; 2]; 2]);
+        if let Some(k) = shared {
+            let times = (s1_start, s2_start + p.slab_us);
+            let bin = (p.slab_us + p.tau_us, slices + k);
+            scratch.bin(slab, window, times, bin, count, deformation.as_ref(), 0);
+        } else {
+            let windows = [
+                (window.shifted(-offsets[0][0], -offsets[0][1]), s1_start),
+                (window.shifted(offsets[1][0], offsets[1][1]), s2_start),
+            ];
+            for (k, (w, start)) in windows.iter().enumerate() {
+                let times = (*start, start + p.slab_us);
+                let bin = (p.slab_us, slices);
+                scratch.bin(slab, w, times, bin, count, deformation.as_ref(), k);
+            }
         }
-        let (n1, n2) = (scratch.a.events, scratch.b.events);
+        let (a, b) = match shared {
+            Some(k) => (
+                scratch.voxels[0].sub_volume(0, slices),
+                scratch.voxels[0].sub_volume(k, slices),
+            ),
+            None => (scratch.voxels[0].all(), scratch.voxels[1].all()),
+        };
+        let (n1, n2) = (a.events(), b.events());
         let events = u32::try_from((n1 + n2) / 2).unwrap_or(u32::MAX);
         if n1 == 0 || n2 == 0 {
             return Err(WindowEstimate::invalid(Status::NO_EVENTS, events));
@@ -250,7 +269,7 @@ impl SumOfCorrelation {
             return Err(WindowEstimate::invalid(Status::FEW_EVENTS, events));
         }
         let shape = scratch.shape;
-        slice_statistics(&scratch.a, &scratch.b, shape, &mut scratch.stats);
+        slice_statistics(a, b, shape, &mut scratch.stats);
         if scratch.stats.is_empty() {
             return Err(WindowEstimate::invalid(Status::NO_PEAK, events));
         }
@@ -258,26 +277,22 @@ impl SumOfCorrelation {
             CorrKernel::Fft => true,
             CorrKernel::Direct => false,
             CorrKernel::Auto => {
-                let pairs: usize = scratch
-                    .stats
-                    .iter()
-                    .map(|s| scratch.a.len(s.z) * scratch.b.len(s.z))
-                    .sum();
+                let pairs: usize = scratch.stats.iter().map(|s| a.len(s.z) * b.len(s.z)).sum();
                 direct_is_slower(pairs, scratch.stats.len(), shape)
             }
         };
         if use_fft {
             let fourier = scratch.fourier.get_or_insert_with(|| Fourier::new(shape));
-            fourier.correlate(&scratch.a, &scratch.b, &scratch.stats, &mut scratch.plane);
+            fourier.correlate(a, b, &scratch.stats, &scratch.overlap, &mut scratch.plane);
         } else {
             direct::correlate(
-                &scratch.a,
-                &scratch.b,
+                a,
+                b,
                 &scratch.stats,
                 shape,
+                &scratch.overlap,
                 &mut scratch.plane,
                 &mut scratch.diff,
-                &mut scratch.sorted,
             );
         }
         Ok(events)
@@ -408,20 +423,21 @@ impl Estimator for SumOfCorrelation {
     }
 }
 
-/// Per-thread working memory of [`SumOfCorrelation`] for one window size: gathered events,
-/// voxel lists, the correlation plane and (built on first use) the FFT plans and buffers.
+/// Per-thread working memory of [`SumOfCorrelation`] for one window size: voxel bitmaps and
+/// lists, the correlation plane and (built on first use) the FFT plans and buffers.
 pub struct CorrSumScratch {
     window: [u32; 2],
     slices: u32,
     shape: PlaneShape,
+    overlap: Overlap,
+    /// Deformed events of one sub-volume before binning.
     events: WindowEvents,
     voxeliser: Voxeliser,
-    a: Voxels,
-    b: Voxels,
+    /// S1 and S2, or (shared) both in the first.
+    voxels: [Voxels; 2],
     stats: Vec<SliceStats>,
     plane: Vec<f64>,
     diff: Vec<f64>,
-    sorted: Vec<(u16, u16, f64)>,
     fourier: Option<Fourier>,
 }
 
@@ -437,16 +453,47 @@ impl CorrSumScratch {
             window,
             slices,
             shape,
+            overlap: Overlap::new(shape),
             events: WindowEvents::default(),
             voxeliser: Voxeliser::new(shape.w, shape.h),
-            a: Voxels::default(),
-            b: Voxels::default(),
+            voxels: Default::default(),
             stats: Vec::with_capacity(slices as usize),
             plane: vec![0.0; shape.plane_width() * shape.plane_height()],
             diff: vec![0.0; (shape.plane_width() + 1) * (shape.plane_height() + 1)],
-            sorted: Vec::new(),
             fourier: None,
         }
+    }
+
+    /// Voxelise the events of `window` in `[from, to)` (deformed by the predictor, if any)
+    /// into `voxels[into]`, as `bin = (length µs, slices)` slices from `from`.
+    #[allow(clippy::too_many_arguments)]
+    fn bin(
+        &mut self,
+        slab: &Slab,
+        window: &Window,
+        (from, to): (i64, i64),
+        (length_us, slices): (i64, usize),
+        count: bool,
+        deformation: Option<&Deformation>,
+        into: usize,
+    ) {
+        let voxeliser = &mut self.voxeliser;
+        voxeliser.begin(length_us, slices, count);
+        match deformation {
+            Some(d) => {
+                self.events.clear();
+                slab.gather_deformed(window, from, to, from, d, &mut self.events);
+                let e = &self.events;
+                for ((&x, &y), &t) in e.x.iter().zip(&e.y).zip(&e.t) {
+                    voxeliser.add(x, y, t);
+                }
+            }
+            // Raw events sit on pixels inside the window, at or after `from`.
+            None => slab.visit(window, from, to, from, |x, y, t| {
+                voxeliser.add_pixel(x as usize, y as usize, t)
+            }),
+        }
+        voxeliser.finish(&mut self.voxels[into]);
     }
 }
 

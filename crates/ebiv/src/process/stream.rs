@@ -183,8 +183,9 @@ impl SlidingEvents {
 
 /// Process `source` at the field times `times_us` (sorted ascending, duplicates dropped):
 /// the slab of each time is built from the events read so far, then evaluated by
-/// [`process_slab`]. `on_field` is called after every field.
-pub fn process_recording<E: Estimator, S: BatchSource>(
+/// [`process_slab`]. Reading and binning the next field's events overlap with the evaluation
+/// of the current one. `on_field` is called after every field.
+pub fn process_recording<E: Estimator, S: BatchSource + Send>(
     source: &mut S,
     geometry: Geometry,
     estimator: &E,
@@ -202,23 +203,42 @@ pub fn process_recording<E: Estimator, S: BatchSource>(
     let (before, after) = estimator.time_extent_us();
     let mut sliding = SlidingEvents::default();
     let mut summary = RunSummary::default();
-    for (k, &t0) in times.iter().enumerate() {
+    // Read up to the end of field `t0`'s interval, keep what follows `keep_from`, and bin the
+    // interval into a slab.
+    let mut next_slab = |sliding: &mut SlidingEvents, t0: i64, keep_from: i64| -> Result<Slab> {
         let (start, end) = (t0 - before, t0 + after);
-        sliding.advance(source, start, end)?;
-        summary.events_read = sliding.events_read;
-        let window = sliding.events();
-        let slab = Slab::build(
-            &window.t,
-            &window.x,
-            &window.y,
-            &window.p,
+        sliding.advance(source, keep_from.min(start), end)?;
+        let events = sliding.events();
+        Ok(Slab::build(
+            &events.t,
+            &events.x,
+            &events.y,
+            &events.p,
             geometry,
             start,
             end,
             params.polarity,
             params.tile_size(),
+        ))
+    };
+    let mut slab = match times.first() {
+        Some(&t0) => Some(next_slab(&mut sliding, t0, t0 - before)?),
+        None => None,
+    };
+    for (k, &t0) in times.iter().enumerate() {
+        let current = slab.take().expect("a slab is built for every field");
+        let following = times.get(k + 1).copied();
+        // The events of this field stay in memory for `on_field`.
+        let (result, built) = rayon::join(
+            || process_slab(estimator, &current, t0, &grids, params),
+            || {
+                following
+                    .map(|t1| next_slab(&mut sliding, t1, t0 - before))
+                    .transpose()
+            },
         );
-        let result = process_slab(estimator, &slab, t0, &grids, params);
+        slab = built?;
+        summary.events_read = sliding.events_read;
         summary.fields += 1;
         summary.vectors += result.field.len();
         summary.valid += result.field.status.iter().filter(|s| s.is_valid()).count();
@@ -229,7 +249,7 @@ pub fn process_recording<E: Estimator, S: BatchSource>(
             total: times.len(),
             t0_us: t0,
             field: &result.field,
-            events: window,
+            events: sliding.events(),
         });
     }
     Ok((series, summary))

@@ -11,21 +11,18 @@
 //! The first term is a sum over voxel pairs; the middle terms add a constant over a rectangle
 //! of lags per voxel (accumulated in a 2-D difference array); the last is analytic.
 
-use super::voxels::{PlaneShape, SliceStats, Voxels};
-
-/// Voxels of a `b` slice from which the pair loop visits them sorted by row.
-const SORT_MIN_VOXELS: usize = 32;
+use super::voxels::{Overlap, PlaneShape, SliceStats, SubVolume};
 
 /// Fill `plane` with the normalised correlation of the slices in `stats`; `diff` is
-/// `(pw + 1) × (ph + 1)` working memory, `sorted` holds one slice's `b` voxels by row.
+/// `(pw + 1) × (ph + 1)` working memory.
 pub(super) fn correlate(
-    a: &Voxels,
-    b: &Voxels,
+    a: SubVolume<'_>,
+    b: SubVolume<'_>,
     stats: &[SliceStats],
     shape: PlaneShape,
+    overlap: &Overlap,
     plane: &mut [f64],
     diff: &mut [f64],
-    sorted: &mut Vec<(u16, u16, f64)>,
 ) {
     let (pw, ph) = (shape.plane_width(), shape.plane_height());
     let dw = pw + 1;
@@ -42,47 +39,33 @@ pub(super) fn correlate(
         diff[y1 * dw + x0] -= c;
         diff[y1 * dw + x1] += c;
     };
+    let (ax, ay, av) = (&a.vox.x, &a.vox.y, &a.vox.v);
     for s in stats {
-        let (ra, rb) = (a.range(s.z), b.range(s.z));
-        let (bx, by, bv) = (&b.x[rb.clone()], &b.y[rb.clone()], &b.v[rb.clone()]);
-        // For a fixed `a` voxel every `b` voxel hits a different lag, so visiting them by
-        // row (only the rows within the search radius) leaves every sum unchanged; worth the
-        // sort only for slices with many voxels.
-        let by_row = bx.len() >= SORT_MIN_VOXELS;
-        if by_row {
-            sorted.clear();
-            sorted.extend(bx.iter().zip(by).zip(bv).map(|((&x, &y), &v)| (x, y, v)));
-            sorted.sort_unstable_by_key(|q| q.1);
-        }
-        for i in ra {
-            let (x, y) = (a.x[i] as isize, a.y[i] as isize);
+        let (bx, by, bv) = (&b.vox.x, &b.vox.y, &b.vox.v);
+        for i in a.range(s.z) {
+            let (x, y) = (ax[i] as isize, ay[i] as isize);
             let (xa, ya) = (x - rx, y - ry);
-            let wa = s.weight * a.v[i];
-            if by_row {
-                let lo = sorted.partition_point(|q| (q.1 as isize) < ya);
-                let hi = sorted.partition_point(|q| (q.1 as isize) <= y + ry);
-                for &(qx, qy, qv) in &sorted[lo..hi] {
-                    let ix = (qx as isize - xa) as usize;
+            let wa = s.weight * av[i];
+            // Only the `b` rows within the search radius.
+            let near = b.rows(s.z, ya..y + ry + 1);
+            for ((&qx, &qy), &qv) in bx[near.clone()]
+                .iter()
+                .zip(&by[near.clone()])
+                .zip(&bv[near])
+            {
+                let ix = (qx as isize - xa) as usize;
+                if ix < pw {
                     let iy = (qy as isize - ya) as usize;
-                    if ix < pw {
-                        plane[iy * pw + ix] += wa * qv;
-                    }
-                }
-            } else {
-                for ((&qx, &qy), &qv) in bx.iter().zip(by).zip(bv) {
-                    let ix = (qx as isize - xa) as usize;
-                    let iy = (qy as isize - ya) as usize;
-                    if ix < pw && iy < ph {
-                        plane[iy * pw + ix] += wa * qv;
-                    }
+                    plane[iy * pw + ix] += wa * qv;
                 }
             }
             // Σ_O a: voxel p counts for the lags with p + Δ inside the window.
-            let c = -s.weight * s.mean_b * a.v[i];
+            let c = -s.weight * s.mean_b * av[i];
             add_rect(rx - x, rx + w - 1 - x, ry - y, ry + h - 1 - y, c);
         }
         // Σ_O b(·+Δ): voxel q counts for the lags with q − Δ inside the window.
-        for ((&qx, &qy), &qv) in bx.iter().zip(by).zip(bv) {
+        let rb = b.range(s.z);
+        for ((&qx, &qy), &qv) in bx[rb.clone()].iter().zip(&by[rb.clone()]).zip(&bv[rb]) {
             let (x, y) = (qx as isize, qy as isize);
             let c = -s.weight * s.mean_a * qv;
             add_rect(rx + x - w + 1, rx + x, ry + y - h + 1, ry + y, c);
@@ -90,24 +73,25 @@ pub(super) fn correlate(
         constant += s.weight * s.mean_a * s.mean_b;
     }
     // One pass: prefix sums turn the difference array into the per-lag values, the analytic
-    // term is added and the lag is normalised as by `voxels::normalise` (same operations, same
-    // order).
-    let n = stats.len().max(1) as f64;
+    // term `n(Δ) ā b̄` is added and the lag is normalised as by [`Overlap::normalise`].
+    let per_slice = 1.0 / stats.len().max(1) as f64;
     for iy in 0..ph {
-        let oy = (shape.h - iy.abs_diff(shape.ry)) as f64;
         let mut run = 0.0;
         let (above, row) = diff.split_at_mut(iy * dw);
         let above = if iy > 0 {
-            &above[(iy - 1) * dw..]
+            &above[(iy - 1) * dw..iy * dw]
         } else {
             &[][..]
         };
-        let cells = &mut plane[iy * pw..(iy + 1) * pw];
-        for (ix, (cell, d)) in cells.iter_mut().zip(&mut row[..pw]).enumerate() {
-            let ox = (shape.w - ix.abs_diff(shape.rx)) as f64;
-            run += *d;
-            *d = run + if iy > 0 { above[ix] } else { 0.0 };
-            *cell = (*cell + (*d + ox * oy * constant)) / (ox * oy * n);
+        let lags = iy * pw..(iy + 1) * pw;
+        let cells = plane[lags.clone()]
+            .iter_mut()
+            .zip(&overlap.area[lags.clone()])
+            .zip(&overlap.inverse[lags]);
+        for (ix, ((cell, &area), &inverse)) in cells.enumerate() {
+            run += row[ix];
+            row[ix] = run + above.get(ix).copied().unwrap_or(0.0);
+            *cell = (*cell + (row[ix] + area * constant)) * (inverse * per_slice);
         }
     }
 }

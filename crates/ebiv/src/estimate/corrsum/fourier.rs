@@ -13,7 +13,7 @@ use realfft::{ComplexToReal, RealFftPlanner};
 use rustfft::num_complex::Complex;
 use rustfft::{Fft, FftPlanner};
 
-use super::voxels::{normalise, PlaneShape, SliceStats, Voxels};
+use super::voxels::{Overlap, PlaneShape, SliceStats, SubVolume, Voxels};
 
 /// Smallest even length `≥ n` whose only prime factors are 2, 3 and 5.
 fn smooth_even(n: usize) -> usize {
@@ -101,19 +101,22 @@ impl Fourier {
                 .collect(),
             v: vec![1.0; shape.w * shape.h],
             start: vec![0, shape.w * shape.h],
-            events: 0,
+            slice_events: vec![0],
+            h: shape.h,
+            row_start: Vec::new(),
         };
         let mut spectrum = std::mem::take(&mut fourier.window_spectrum);
-        fourier.forward(&window, 0, 0.0, &mut spectrum);
+        fourier.forward(window.all(), 0, 0.0, &mut spectrum);
         fourier.window_spectrum = spectrum;
         fourier
     }
 
     /// Spectrum of slice `z` of `vox` minus `mean` over the window, into `out`.
-    fn forward(&mut self, vox: &Voxels, z: usize, mean: f64, out: &mut [Complex<f64>]) {
+    fn forward(&mut self, sub: SubVolume<'_>, z: usize, mean: f64, out: &mut [Complex<f64>]) {
         let (nx, ny) = (self.nx, self.ny);
+        let vox = sub.vox;
         out.fill(Complex::default());
-        for i in vox.range(z) {
+        for i in sub.range(z) {
             let (x, y, v) = (vox.x[i] as usize, vox.y[i] as usize, vox.v[i]);
             let mut phase = 0usize;
             for kx in 0..=nx / 2 {
@@ -134,7 +137,14 @@ impl Fourier {
     }
 
     /// Fill `plane` with the normalised correlation of the slices in `stats`.
-    pub fn correlate(&mut self, a: &Voxels, b: &Voxels, stats: &[SliceStats], plane: &mut [f64]) {
+    pub fn correlate(
+        &mut self,
+        a: SubVolume<'_>,
+        b: SubVolume<'_>,
+        stats: &[SliceStats],
+        overlap: &Overlap,
+        plane: &mut [f64],
+    ) {
         let mut spectrum_a = std::mem::take(&mut self.spectrum_a);
         let mut spectrum_b = std::mem::take(&mut self.spectrum_b);
         self.sum.fill(Complex::default());
@@ -148,7 +158,7 @@ impl Fourier {
         self.spectrum_a = spectrum_a;
         self.spectrum_b = spectrum_b;
         self.inverse(plane);
-        normalise(plane, self.shape, stats.len());
+        overlap.normalise(plane, stats.len());
     }
 
     /// Inverse transform of the summed spectrum, cropped to the search lags.

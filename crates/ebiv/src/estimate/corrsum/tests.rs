@@ -2,7 +2,9 @@
 
 use super::fit::refine_tilted;
 use super::fourier::Fourier;
-use super::voxels::{slice_statistics, PlaneShape, SliceStats, Voxeliser, Voxels};
+use super::voxels::{
+    slice_statistics, Overlap, PlaneShape, SliceStats, SubVolume, Voxeliser, Voxels,
+};
 use super::*;
 use crate::estimate::peak::find_peak;
 
@@ -35,13 +37,18 @@ fn random_events(rng: &mut Rng, n: usize, w: u32, h: u32, slab: i64) -> WindowEv
 }
 
 /// The definition, evaluated on dense images: Σ_z w_z Σ_O (a − ā)(b − b̄) / (n(Δ) · N).
-fn dense_plane(a: &Voxels, b: &Voxels, stats: &[SliceStats], s: PlaneShape) -> Vec<f64> {
+fn dense_plane(
+    a: SubVolume<'_>,
+    b: SubVolume<'_>,
+    stats: &[SliceStats],
+    s: PlaneShape,
+) -> Vec<f64> {
     let (pw, ph) = (s.plane_width(), s.plane_height());
     let mut plane = vec![0.0; pw * ph];
-    let image = |v: &Voxels, z: usize| {
+    let image = |v: SubVolume<'_>, z: usize| {
         let mut img = vec![0.0; s.w * s.h];
         for i in v.range(z) {
-            img[v.y[i] as usize * s.w + v.x[i] as usize] = v.v[i];
+            img[v.vox.y[i] as usize * s.w + v.vox.x[i] as usize] = v.vox.v[i];
         }
         img
     };
@@ -66,7 +73,7 @@ fn dense_plane(a: &Voxels, b: &Voxels, stats: &[SliceStats], s: PlaneShape) -> V
             }
         }
     }
-    voxels::normalise(&mut plane, s, stats.len());
+    Overlap::new(s).normalise(&mut plane, stats.len());
     plane
 }
 
@@ -111,24 +118,18 @@ fn direct_fft_and_definition_agree_on_random_inputs() {
             count,
             &mut b,
         );
+        let (a, b) = (a.all(), b.all());
         let mut stats = Vec::new();
-        slice_statistics(&a, &b, shape, &mut stats);
+        slice_statistics(a, b, shape, &mut stats);
         assert!(!stats.is_empty());
         let (pw, ph) = (shape.plane_width(), shape.plane_height());
+        let overlap = Overlap::new(shape);
         let mut direct = vec![0.0; pw * ph];
         let mut diff = vec![0.0; (pw + 1) * (ph + 1)];
-        direct::correlate(
-            &a,
-            &b,
-            &stats,
-            shape,
-            &mut direct,
-            &mut diff,
-            &mut Vec::new(),
-        );
+        direct::correlate(a, b, &stats, shape, &overlap, &mut direct, &mut diff);
         let mut fft = vec![0.0; pw * ph];
-        Fourier::new(shape).correlate(&a, &b, &stats, &mut fft);
-        let dense = dense_plane(&a, &b, &stats, shape);
+        Fourier::new(shape).correlate(a, b, &stats, &overlap, &mut fft);
+        let dense = dense_plane(a, b, &stats, shape);
         let e1 = max_relative_difference(&dense, &direct);
         let e2 = max_relative_difference(&dense, &fft);
         assert!(
@@ -157,19 +158,19 @@ fn zero_lag_is_the_mean_pearson_coefficient() {
         false,
         &mut a,
     );
-    let b = a.clone();
     let mut stats = Vec::new();
-    slice_statistics(&a, &b, shape, &mut stats);
+    slice_statistics(a.all(), a.all(), shape, &mut stats);
     let mut plane = vec![0.0; 13 * 11];
     let mut diff = vec![0.0; 14 * 12];
+    let overlap = Overlap::new(shape);
     direct::correlate(
-        &a,
-        &b,
+        a.all(),
+        a.all(),
         &stats,
         shape,
+        &overlap,
         &mut plane,
         &mut diff,
-        &mut Vec::new(),
     );
     assert!(
         (plane[5 * 13 + 6] - 1.0).abs() < 1e-12,
@@ -189,12 +190,120 @@ fn voxeliser_bins_by_slice_and_deduplicates() {
     let mut voxeliser = Voxeliser::new(4, 2);
     let mut out = Voxels::default();
     voxeliser.run(&events, 100, 10, false, &mut out);
-    assert_eq!(out.events, 5, "the event at t = slab is outside");
+    assert_eq!(out.all().events(), 5, "the event at t = slab is outside");
+    assert_eq!(out.slice_events, vec![2, 2, 0, 0, 0, 0, 0, 0, 0, 1]);
     assert_eq!(out.start, vec![0, 1, 3, 3, 3, 3, 3, 3, 3, 3, 4]);
     assert_eq!(out.v, vec![1.0; 4]);
     voxeliser.run(&events, 100, 10, true, &mut out);
     assert_eq!(out.v, vec![2.0, 1.0, 1.0, 1.0]);
     assert_eq!((out.x[1], out.y[1]), (1, 0));
+}
+
+#[test]
+fn slices_are_exact_with_and_without_the_table() {
+    // Short sub-volumes use the tabulated slices, long ones the arithmetic: both give ⌊tN/T⌋.
+    for (slab, slices) in [
+        (1000i64, 7u32),
+        (10_000, 20),
+        (13_000, 26),
+        (200_000, 30),
+        (99_991, 13),
+    ] {
+        let mut voxeliser = Voxeliser::new(1, 1);
+        let mut out = Voxels::default();
+        for t in [0, 1, slab / 3, slab / 2 + 1, slab - 2, slab - 1] {
+            let events = WindowEvents {
+                x: vec![0.0],
+                y: vec![0.0],
+                t: vec![t as f32],
+            };
+            voxeliser.run(&events, slab, slices, false, &mut out);
+            let z = out.slice_events.iter().position(|&n| n == 1).unwrap();
+            assert_eq!(
+                z as i64,
+                t * slices as i64 / slab,
+                "T {slab}, N {slices}, t {t}"
+            );
+        }
+    }
+}
+
+#[test]
+fn voxels_are_sorted_by_row_within_a_slice() {
+    let mut rng = Rng(11);
+    let mut voxeliser = Voxeliser::new(70, 9);
+    let mut out = Voxels::default();
+    voxeliser.run(
+        &random_events(&mut rng, 400, 70, 9, 300),
+        300,
+        3,
+        false,
+        &mut out,
+    );
+    for z in 0..3 {
+        let r = out.all().range(z);
+        let keys: Vec<(u16, u16)> = r.map(|i| (out.y[i], out.x[i])).collect();
+        assert!(keys.windows(2).all(|k| k[0] < k[1]), "slice {z}: {keys:?}");
+    }
+    // Reading the bitmaps back cleared them: an empty run gives no voxels.
+    voxeliser.run(&WindowEvents::default(), 300, 3, false, &mut out);
+    assert!(out.x.is_empty() && out.start == vec![0; 4]);
+}
+
+/// One voxelisation of `[S1 start, S2 end)` split into overlapping runs of slices gives the
+/// same sub-volumes, statistics and plane as voxelising S1 and S2 separately.
+#[test]
+fn shared_voxelisation_equals_separate_sub_volumes() {
+    let mut rng = Rng(5);
+    let (slab, tau, slices, k) = (1000i64, 300i64, 10usize, 3usize);
+    let shape = PlaneShape {
+        w: 24,
+        h: 20,
+        rx: 8,
+        ry: 6,
+    };
+    let all = random_events(&mut rng, 900, 24, 20, slab + tau);
+    let part = |from: i64| {
+        let mut e = WindowEvents::default();
+        for i in 0..all.len() {
+            let t = all.t[i] - from as f32;
+            if (0.0..slab as f32).contains(&t) {
+                e.x.push(all.x[i]);
+                e.y.push(all.y[i]);
+                e.t.push(t);
+            }
+        }
+        e
+    };
+    let mut voxeliser = Voxeliser::new(24, 20);
+    let (mut union, mut s1, mut s2) = Default::default();
+    voxeliser.run(&all, slab + tau, (slices + k) as u32, false, &mut union);
+    voxeliser.run(&part(0), slab, slices as u32, false, &mut s1);
+    voxeliser.run(&part(tau), slab, slices as u32, false, &mut s2);
+    let (a, b): (&Voxels, &Voxels) = (&s1, &s2);
+    let (ua, ub) = (union.sub_volume(0, slices), union.sub_volume(k, slices));
+    assert_eq!(
+        (ua.events(), ub.events()),
+        (a.all().events(), b.all().events())
+    );
+    let plane = |a: SubVolume<'_>, b: SubVolume<'_>| {
+        let mut stats = Vec::new();
+        slice_statistics(a, b, shape, &mut stats);
+        let (pw, ph) = (shape.plane_width(), shape.plane_height());
+        let mut plane = vec![0.0; pw * ph];
+        let mut diff = vec![0.0; (pw + 1) * (ph + 1)];
+        direct::correlate(
+            a,
+            b,
+            &stats,
+            shape,
+            &Overlap::new(shape),
+            &mut plane,
+            &mut diff,
+        );
+        (stats, plane)
+    };
+    assert_eq!(plane(ua, ub), plane(a.all(), b.all()));
 }
 
 #[test]

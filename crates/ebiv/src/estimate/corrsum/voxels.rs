@@ -1,6 +1,12 @@
 //! Voxelisation of a sub-volume into per-slice occupancy lists, slice statistics and the
 //! overlap normalisation shared by both correlation kernels.
+//!
+//! Events are binned into one occupancy bitmap per time slice (a bit per pixel, rows of
+//! 64-bit words), so that a voxel holding several events costs nothing extra and reading the
+//! bitmaps back yields each slice's voxels already sorted by row and column, which the direct
+//! kernel uses to visit only the rows within its search radius.
 
+#[cfg(test)]
 use crate::volume::WindowEvents;
 
 /// Window size and search radius: the correlation plane holds the lags
@@ -23,40 +29,111 @@ impl PlaneShape {
     }
 }
 
-/// Non-empty voxels of one sub-volume, grouped by slice: slice `z` holds
-/// `start[z]..start[z + 1]`.
+/// Non-empty voxels of consecutive time slices, grouped by slice (slice `z` holds
+/// `start[z]..start[z + 1]`) and sorted by row, then column, within a slice.
 #[derive(Debug, Clone, Default)]
 pub(super) struct Voxels {
     pub x: Vec<u16>,
     pub y: Vec<u16>,
     pub v: Vec<f64>,
     pub start: Vec<usize>,
-    /// Events that went into the voxels.
-    pub events: usize,
+    /// Events binned into each slice.
+    pub slice_events: Vec<usize>,
+    /// Window height in rows.
+    pub h: usize,
+    /// First voxel of every row: slice `z`, row `r` starts at `row_start[z (h + 1) + r]`.
+    pub row_start: Vec<u32>,
 }
 
 impl Voxels {
-    pub fn range(&self, z: usize) -> std::ops::Range<usize> {
-        self.start[z]..self.start[z + 1]
+    /// All slices, as one sub-volume.
+    pub fn all(&self) -> SubVolume<'_> {
+        SubVolume {
+            vox: self,
+            first: 0,
+            slices: self.slice_events.len(),
+        }
     }
 
-    pub fn len(&self, z: usize) -> usize {
-        self.start[z + 1] - self.start[z]
+    /// `slices` consecutive slices from `first` (which must exist).
+    pub fn sub_volume(&self, first: usize, slices: usize) -> SubVolume<'_> {
+        debug_assert!(first + slices <= self.slice_events.len());
+        SubVolume {
+            vox: self,
+            first,
+            slices,
+        }
     }
 }
 
-/// Reusable buffers for [`Voxeliser::run`]: a generation stamp per pixel marks voxels
-/// already seen in the current slice, so nothing is cleared between slices or windows.
+/// A run of consecutive slices of [`Voxels`]: one sub-volume (S1 or S2) of the estimator.
+/// When both sub-volumes share their pixels (no window offset) and the delay is a whole
+/// number of slices, S1 and S2 are two overlapping runs of the same voxelisation.
+#[derive(Debug, Clone, Copy)]
+pub(super) struct SubVolume<'a> {
+    pub vox: &'a Voxels,
+    first: usize,
+    slices: usize,
+}
+
+impl SubVolume<'_> {
+    /// Number of slices.
+    pub fn slices(&self) -> usize {
+        self.slices
+    }
+
+    /// Indices into `vox.x`, `vox.y`, `vox.v` of slice `z` of this sub-volume.
+    pub fn range(&self, z: usize) -> std::ops::Range<usize> {
+        self.vox.start[self.first + z]..self.vox.start[self.first + z + 1]
+    }
+
+    pub fn len(&self, z: usize) -> usize {
+        self.range(z).len()
+    }
+
+    /// Indices of the voxels of slice `z` in rows `rows` (clipped to the window).
+    #[inline]
+    pub fn rows(&self, z: usize, rows: std::ops::Range<isize>) -> std::ops::Range<usize> {
+        let h = self.vox.h;
+        let base = (self.first + z) * (h + 1);
+        let clip = |r: isize| r.clamp(0, h as isize) as usize;
+        let starts = &self.vox.row_start;
+        starts[base + clip(rows.start)] as usize..starts[base + clip(rows.end)] as usize
+    }
+
+    /// Events that went into the voxels of this sub-volume.
+    pub fn events(&self) -> usize {
+        self.vox.slice_events[self.first..self.first + self.slices]
+            .iter()
+            .sum()
+    }
+}
+
+/// Longest sub-volume whose slice of every µs is tabulated.
+const TABLE_US: i64 = 1 << 16;
+
+/// Bins events into per-slice occupancy bitmaps and reads them back as [`Voxels`]. The
+/// bitmaps are all zero between uses (reading clears them), so nothing is cleared per window.
 #[derive(Debug, Clone)]
 pub(super) struct Voxeliser {
     w: usize,
     h: usize,
-    stamp: Vec<u32>,
-    slot: Vec<u32>,
-    generation: u32,
-    slice: Vec<u32>,
-    order: Vec<u32>,
-    counts: Vec<usize>,
+    /// 64-bit words per bitmap row.
+    words: usize,
+    bits: Vec<u64>,
+    /// Events per voxel, `[slice][row][column]`, only with count weighting.
+    counts: Vec<u16>,
+    /// Rows holding any event, a bit per row, `row_words` words per slice.
+    rows: Vec<u64>,
+    row_words: usize,
+    slab_us: i64,
+    /// `N_T / T`, per µs.
+    slices_per_us: f64,
+    /// The slice of every µs of the sub-volume, for sub-volumes up to [`TABLE_US`] long.
+    slice_table: Vec<u16>,
+    slices: usize,
+    count: bool,
+    slice_events: Vec<usize>,
 }
 
 impl Voxeliser {
@@ -64,17 +141,153 @@ impl Voxeliser {
         Voxeliser {
             w,
             h,
-            stamp: vec![0; w * h],
-            slot: vec![0; w * h],
-            generation: 0,
-            slice: Vec::new(),
-            order: Vec::new(),
+            words: w.div_ceil(64).max(1),
+            bits: Vec::new(),
             counts: Vec::new(),
+            rows: Vec::new(),
+            row_words: h.div_ceil(64).max(1),
+            slab_us: 1,
+            slices_per_us: 1.0,
+            slice_table: Vec::new(),
+            slices: 1,
+            count: false,
+            slice_events: Vec::new(),
         }
     }
 
-    /// Bin `events` (local coordinates, time relative to the sub-volume start, in
-    /// `[0, slab_us)`) into `slices` slices of binary (or, with `count`, counted) voxels.
+    /// Start binning a sub-volume of `slab_us` µs cut into `slices` slices, with binary (or,
+    /// with `count`, counted) voxels.
+    pub fn begin(&mut self, slab_us: i64, slices: usize, count: bool) {
+        let (slab_us, slices) = (slab_us.max(1), slices.max(1));
+        if (slab_us, slices) != (self.slab_us, self.slices) || self.slice_table.is_empty() {
+            self.slab_us = slab_us;
+            self.slices = slices;
+            self.slices_per_us = slices as f64 / slab_us as f64;
+            self.slice_table.clear();
+            if slab_us <= TABLE_US && slices <= usize::from(u16::MAX) {
+                let table = (0..slab_us).map(|t| self.slice_by_arithmetic(t) as u16);
+                self.slice_table = table.collect();
+            }
+        }
+        self.count = count;
+        let need = self.slices * self.h * self.words;
+        if self.bits.len() < need {
+            self.bits.resize(need, 0);
+        }
+        if self.rows.len() < self.slices * self.row_words {
+            self.rows.resize(self.slices * self.row_words, 0);
+        }
+        if count && self.counts.len() < self.slices * self.h * self.w {
+            self.counts.resize(self.slices * self.h * self.w, 0);
+        }
+        self.slice_events.clear();
+        self.slice_events.resize(self.slices, 0);
+    }
+
+    /// Bin one event at local position `(x, y)` (rounded to the nearest pixel: the identity
+    /// for raw events, rounding for deformed ones) and time `t` µs after the sub-volume start.
+    /// Events outside the window or the sub-volume (or NaN) are ignored.
+    #[inline]
+    pub fn add(&mut self, x: f32, y: f32, t: f32) {
+        let (xf, yf) = (x + 0.5, y + 0.5);
+        // For non-negative values truncation is the floor; NaN fails the comparisons and
+        // huge values saturate beyond the window.
+        if xf >= 0.0 && yf >= 0.0 && t >= 0.0 {
+            self.add_pixel(xf as usize, yf as usize, t as i64);
+        }
+    }
+
+    /// Bin one event at pixel `(col, row)` of the window and time `time` µs after the
+    /// sub-volume start; ignored outside the window or the sub-volume.
+    #[inline(always)]
+    pub fn add_pixel(&mut self, col: usize, row: usize, time: i64) {
+        if col >= self.w || row >= self.h || !(0..self.slab_us).contains(&time) {
+            return;
+        }
+        let z = self.slice_of(time);
+        self.slice_events[z] += 1;
+        self.rows[z * self.row_words + row / 64] |= 1u64 << (row % 64);
+        let line = (z * self.h + row) * self.words;
+        self.bits[line + col / 64] |= 1u64 << (col % 64);
+        if self.count {
+            let c = &mut self.counts[(z * self.h + row) * self.w + col];
+            *c = c.saturating_add(1);
+        }
+    }
+
+    /// The slice of `time` µs (in `[0, T)`): `⌊t·N/T⌋`.
+    #[inline(always)]
+    fn slice_of(&self, time: i64) -> usize {
+        match self.slice_table.get(time as usize) {
+            Some(&z) => usize::from(z),
+            None => self.slice_by_arithmetic(time),
+        }
+    }
+
+    /// `⌊t·N/T⌋` exactly (integer arithmetic: the f64 estimate is off by at most one).
+    fn slice_by_arithmetic(&self, time: i64) -> usize {
+        let n = self.slices as i64;
+        let scaled = time * n;
+        let mut z = (time as f64 * self.slices_per_us) as i64;
+        if (z + 1) * self.slab_us <= scaled {
+            z += 1;
+        } else if z * self.slab_us > scaled {
+            z -= 1;
+        }
+        z.clamp(0, n - 1) as usize
+    }
+
+    /// Read the bitmaps back into `out` (clearing them), visiting only rows that hold events.
+    pub fn finish(&mut self, out: &mut Voxels) {
+        let (w, h, words) = (self.w, self.h, self.words);
+        let total: usize = self.slice_events.iter().sum();
+        out.x.clear();
+        out.y.clear();
+        out.v.clear();
+        out.x.reserve(total);
+        out.y.reserve(total);
+        out.v.reserve(total);
+        out.start.clear();
+        out.start.push(0);
+        out.slice_events.clone_from(&self.slice_events);
+        out.h = h;
+        out.row_start.clear();
+        out.row_start.resize(self.slices * (h + 1), 0);
+        for z in 0..self.slices {
+            let starts = &mut out.row_start[z * (h + 1)..(z + 1) * (h + 1)];
+            let mut filled = 0;
+            for rw in 0..self.row_words {
+                let mut mask = std::mem::take(&mut self.rows[z * self.row_words + rw]);
+                while mask != 0 {
+                    let row = rw * 64 + mask.trailing_zeros() as usize;
+                    mask &= mask - 1;
+                    starts[filled..=row].fill(out.v.len() as u32);
+                    filled = row + 1;
+                    let line = (z * h + row) * words;
+                    for k in 0..words {
+                        let mut word = std::mem::take(&mut self.bits[line + k]);
+                        while word != 0 {
+                            let col = k * 64 + word.trailing_zeros() as usize;
+                            word &= word - 1;
+                            out.x.push(col as u16);
+                            out.y.push(row as u16);
+                            let value = if self.count {
+                                std::mem::take(&mut self.counts[(z * h + row) * w + col])
+                            } else {
+                                1
+                            };
+                            out.v.push(f64::from(value));
+                        }
+                    }
+                }
+            }
+            starts[filled..].fill(out.v.len() as u32);
+            out.start.push(out.v.len());
+        }
+    }
+
+    /// Bin `events` (local coordinates, time relative to the sub-volume start) into `out`.
+    #[cfg(test)]
     pub fn run(
         &mut self,
         events: &WindowEvents,
@@ -83,87 +296,11 @@ impl Voxeliser {
         count: bool,
         out: &mut Voxels,
     ) {
-        let n_slices = slices as usize;
-        out.x.clear();
-        out.y.clear();
-        out.v.clear();
-        out.start.clear();
-        out.events = 0;
-        self.slice.clear();
-        self.slice.reserve(events.len());
-        self.counts.clear();
-        self.counts.resize(n_slices + 1, 0);
-        let (w, h) = (self.w, self.h);
-        let slab = slab_us as f64;
-        let last = n_slices - 1;
-        let (xs, ys, ts) = (&events.x, &events.y, &events.t);
-        let n = ts.len().min(xs.len()).min(ys.len());
-        for i in 0..n {
-            // Nearest pixel: identity for raw events, rounding for deformed ones. For
-            // `xf ≥ 0` truncation is the floor; NaN fails the comparison.
-            let (xf, yf) = (xs[i] + 0.5, ys[i] + 0.5);
-            let t = ts[i] as f64;
-            let inside = xf >= 0.0 && yf >= 0.0 && (xf as usize) < w && (yf as usize) < h;
-            if !inside || !(0.0..slab).contains(&t) {
-                self.slice.push(u32::MAX);
-                continue;
-            }
-            // ⌊t·N / T⌋ in f64 is exact: the dividend is an integer below 2⁵³ and
-            // T·N < 2⁵³, so a non-integral quotient never rounds up to the next integer.
-            let z = (((t as i64 * slices as i64) as f64 / slab) as usize).min(last);
-            self.slice.push(z as u32);
-            self.counts[z + 1] += 1;
+        self.begin(slab_us, slices as usize, count);
+        for ((&x, &y), &t) in events.x.iter().zip(&events.y).zip(&events.t) {
+            self.add(x, y, t);
         }
-        for z in 0..n_slices {
-            self.counts[z + 1] += self.counts[z];
-        }
-        out.events = self.counts[n_slices];
-        self.order.clear();
-        self.order.resize(out.events, 0);
-        // Counting sort by slice: `counts[z]` advances as slice z fills; the sorted entries
-        // are the pixel coordinates packed as `y << 16 | x`.
-        for (i, &z) in self.slice.iter().enumerate() {
-            if z != u32::MAX {
-                let at = &mut self.counts[z as usize];
-                let (x, y) = ((xs[i] + 0.5) as u32, (ys[i] + 0.5) as u32);
-                self.order[*at] = (y << 16) | x;
-                *at += 1;
-            }
-        }
-        out.x.reserve(out.events);
-        out.y.reserve(out.events);
-        out.v.reserve(out.events);
-        out.start.reserve(n_slices + 1);
-        let mut first = 0usize;
-        out.start.push(0);
-        for z in 0..n_slices {
-            let end = self.counts[z];
-            self.next_generation();
-            let generation = self.generation;
-            for &xy in &self.order[first..end] {
-                let (x, y) = ((xy & 0xffff) as usize, (xy >> 16) as usize);
-                let pixel = y * w + x;
-                if self.stamp[pixel] != generation {
-                    self.stamp[pixel] = generation;
-                    self.slot[pixel] = out.v.len() as u32;
-                    out.x.push(x as u16);
-                    out.y.push(y as u16);
-                    out.v.push(1.0);
-                } else if count {
-                    out.v[self.slot[pixel] as usize] += 1.0;
-                }
-            }
-            first = end;
-            out.start.push(out.v.len());
-        }
-    }
-
-    fn next_generation(&mut self) {
-        if self.generation == u32::MAX {
-            self.stamp.fill(0);
-            self.generation = 0;
-        }
-        self.generation += 1;
+        self.finish(out);
     }
 }
 
@@ -180,21 +317,21 @@ pub(super) struct SliceStats {
 /// Slices where both occupancy images vary (neither empty nor full): they contribute to the
 /// sum; the others contribute nothing and are not counted.
 pub(super) fn slice_statistics(
-    a: &Voxels,
-    b: &Voxels,
+    a: SubVolume<'_>,
+    b: SubVolume<'_>,
     shape: PlaneShape,
     out: &mut Vec<SliceStats>,
 ) {
     out.clear();
     let pixels = (shape.w * shape.h) as f64;
-    let moments = |v: &Voxels, z: usize| {
-        let (s, s2) = v.v[v.range(z)]
+    let moments = |v: SubVolume<'_>, z: usize| {
+        let (s, s2) = v.vox.v[v.range(z)]
             .iter()
             .fold((0.0, 0.0), |(s, s2), &x| (s + x, s2 + x * x));
         let mean = s / pixels;
         (mean, s2 / pixels - mean * mean)
     };
-    for z in 0..a.start.len().saturating_sub(1) {
+    for z in 0..a.slices().min(b.slices()) {
         if a.len(z) == 0 || b.len(z) == 0 {
             continue;
         }
@@ -212,17 +349,35 @@ pub(super) fn slice_statistics(
     }
 }
 
-/// Turn the summed covariance numerators into correlation coefficients: divide each lag by
-/// its overlap area `(W − |dx|)(H − |dy|)` (unbiased linear correlation, no bias toward zero
-/// displacement) and by the number of contributing slices.
-pub(super) fn normalise(plane: &mut [f64], shape: PlaneShape, slices: usize) {
-    let (pw, ph) = (shape.plane_width(), shape.plane_height());
-    let n = slices.max(1) as f64;
-    for iy in 0..ph {
-        let oy = (shape.h - iy.abs_diff(shape.ry)) as f64;
-        for ix in 0..pw {
-            let ox = (shape.w - ix.abs_diff(shape.rx)) as f64;
-            plane[iy * pw + ix] /= ox * oy * n;
+/// The overlap area `n(Δ) = (W − |dx|)(H − |dy|)` of every lag of a plane, and its
+/// reciprocal: dividing by it gives the unbiased linear correlation (no bias toward zero
+/// displacement).
+#[derive(Debug, Clone)]
+pub(super) struct Overlap {
+    pub area: Vec<f64>,
+    pub inverse: Vec<f64>,
+}
+
+impl Overlap {
+    pub fn new(shape: PlaneShape) -> Self {
+        let (pw, ph) = (shape.plane_width(), shape.plane_height());
+        let area: Vec<f64> = (0..pw * ph)
+            .map(|i| {
+                let oy = shape.h - (i / pw).abs_diff(shape.ry);
+                let ox = shape.w - (i % pw).abs_diff(shape.rx);
+                (ox * oy) as f64
+            })
+            .collect();
+        let inverse = area.iter().map(|a| 1.0 / a).collect();
+        Overlap { area, inverse }
+    }
+
+    /// Turn the summed covariance numerators into correlation coefficients: divide each lag
+    /// by its overlap area and by the number of contributing slices.
+    pub fn normalise(&self, plane: &mut [f64], slices: usize) {
+        let per_slice = 1.0 / slices.max(1) as f64;
+        for (p, inverse) in plane.iter_mut().zip(&self.inverse) {
+            *p *= inverse * per_slice;
         }
     }
 }
