@@ -67,12 +67,41 @@ fn uniform_flow_of_2_px_per_ms_within_0_05_rms() {
     }
 }
 
+/// Sum of correlation: the summed peak of pixel-quantised events is about a pixel wide and
+/// locks onto whole-pixel displacements; smoothing it near the maximum before the fit
+/// (default σ = 1 px) must lower the error of a flow displaced by half pixels over τ
+/// (6.5 px, 2.5 px). Measured: RMS 0.028 px/ms without, 0.022 with.
+#[test]
+fn peak_smoothing_reduces_peak_locking_of_half_pixel_displacements() {
+    let flow = "type = \"uniform\"\nu = 2.1666667\nv = 0.8333333";
+    let (sim, events) = scenario(flow, "40ms", 21);
+    let passes = [(64, 32), (32, 16)];
+    let locked = SumOfCorrelation::new(CorrSumParams {
+        peak_smoothing_px: 0.0,
+        ..CorrSumParams::default()
+    })
+    .unwrap();
+    let raw = errors(
+        &process(&locked, &sim, &events, &passes, &FIELD_TIMES),
+        &sim,
+    );
+    let smoothed = errors(
+        &process(&corrsum(), &sim, &events, &passes, &FIELD_TIMES),
+        &sim,
+    );
+    println!("half-pixel displacements, corrsum 64→32 px, no smoothing: {raw}");
+    println!("half-pixel displacements, corrsum 64→32 px, σ = 1 px: {smoothed}");
+    assert!(smoothed.rms < 0.85 * raw.rms, "{smoothed}\nvs\n{raw}");
+    assert!(smoothed.valid_share() >= 0.99, "{smoothed}");
+}
+
 /// Solid-body rotation: the velocity gradient makes a window estimate refer to wherever its
 /// few particles are; deforming the events along the predictor's affine paths (later passes,
 /// the last one repeated) must remove most of that error. The target, DVR ≥ 350, is
 /// not reached: with the exact (true) predictor the last pass itself gives RMS ≈ 0.03 px/ms
 /// here, about what both estimators give for a uniform flow oblique to the pixel grid
-/// (0.02–0.03 px/ms), so the bound is the measured DVR (98 corrsum, 119 motion) less a margin.
+/// (0.02–0.03 px/ms), so the bound is the measured DVR (115 corrsum with the peak smoothing,
+119 motion) less a margin.
 /// The truth is compared at each vector's window centre and field time (`assess`).
 #[test]
 fn turntable_event_deformation_removes_gradient_error() {
@@ -84,7 +113,7 @@ fn turntable_event_deformation_removes_gradient_error() {
             "corrsum",
             process_with(&corrsum(), &sim, &events, &passes, &FIELD_TIMES, true),
             process_with(&corrsum(), &sim, &events, &passes, &FIELD_TIMES, false),
-            90.0,
+            105.0,
         ),
         (
             "motion",

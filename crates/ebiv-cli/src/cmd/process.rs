@@ -119,6 +119,10 @@ pub struct ProcessArgs {
     /// Sub-pixel peak fit: gauss3, parabolic or gauss2d.
     #[arg(long)]
     pub fit: Option<String>,
+    /// corrsum: σ in px of the Gaussian that smooths the summed correlation plane around its
+    /// maximum before the sub-pixel fit, against peak locking (default 1; 0 = off).
+    #[arg(long, value_name = "PX")]
+    pub peak_smoothing: Option<f64>,
     /// motion: half-width of the velocity search range in px/ms (default: window/slab,
     /// a quarter of it around a previous pass's prediction).
     #[arg(long, value_name = "PX_PER_MS")]
@@ -187,6 +191,7 @@ impl ProcessArgs {
             output: self.output.clone(),
             png: self.png.clone(),
             fit: self.fit.clone(),
+            peak_smoothing: self.peak_smoothing,
             search_range: self.search_range,
             replace: self.replace.then_some(true),
             mm_per_px: self.mm_per_px,

@@ -27,6 +27,7 @@ pub struct ProcessConfig {
     pub output: Option<PathBuf>,
     pub png: Option<PathBuf>,
     pub fit: Option<String>,
+    pub peak_smoothing: Option<f64>,
     pub search_range: Option<f64>,
     pub replace: Option<bool>,
     pub mm_per_px: Option<f64>,
@@ -114,6 +115,7 @@ impl ProcessConfig {
             output,
             png,
             fit,
+            peak_smoothing,
             search_range,
             replace,
             mm_per_px,
@@ -169,6 +171,8 @@ output = "flow.nc"              # .nc, .csv, .npz, .dat (Tecplot) or .vtk
 # png = "figures"               # folder for vector maps, histograms and an animation
 # fit = "gauss2d"              # sub-pixel peak fit: gauss3, parabolic or gauss2d
 #                               # (default: gauss2d for corrsum, gauss3 for motion)
+# peak-smoothing = 1.0          # corrsum: Gaussian σ (px) smoothing the plane near its peak
+#                               # before the fit, against peak locking; 0 = off
 # search-range = 4.0            # motion: half-width of the velocity search, px/ms
 #                               # (default: window / slab, a quarter of it around a predictor)
 replace = false                 # replace outliers of the last pass by interpolation

@@ -156,6 +156,9 @@ impl Settings {
             corrsum.fit = fit;
             motion.fit = fit;
         }
+        if let Some(sigma) = c.peak_smoothing {
+            corrsum.peak_smoothing_px = sigma;
+        }
         if c.search_range.is_some() {
             motion.search_range = c.search_range;
         }

@@ -33,7 +33,7 @@ use crate::error::{Error, Result};
 use crate::field::Status;
 use crate::grid::Window;
 use crate::volume::{Deformation, Slab, WindowEvents};
-use fit::refine_tilted;
+use fit::refine_smoothed;
 use fourier::Fourier;
 use voxels::{slice_statistics, Overlap, PlaneShape, SliceStats, Voxeliser, Voxels};
 
@@ -93,6 +93,11 @@ pub struct CorrSumParams {
     /// with a first pass on larger windows. A peak on the border of the search region is
     /// flagged [`Status::OUT_OF_RANGE`].
     pub search_radius_px: Option<u32>,
+    /// Standard deviation, px, of the Gaussian that smooths the summed plane around its
+    /// maximum before the sub-pixel fit, against peak locking (0: no smoothing). Default
+    /// 1 px: on simulated uniform flows with half-pixel displacements it lowers the RMS error
+    /// by about 20 % (and raises it by about 10 % for whole-pixel ones, which lock by luck).
+    pub peak_smoothing_px: f64,
 }
 
 impl Default for CorrSumParams {
@@ -106,12 +111,15 @@ impl Default for CorrSumParams {
             weighting: Weighting::Binary,
             min_events: 10,
             search_radius_px: None,
+            peak_smoothing_px: 1.0,
         }
     }
 }
 
 /// Longest sub-volume: local event times are `f32` µs, exact up to 2²⁴ µs.
 const MAX_SLAB_US: i64 = 16_000_000;
+/// Widest smoothing of the plane before the peak fit, px.
+const MAX_PEAK_SMOOTHING_PX: f64 = 5.0;
 /// Most slices per sub-volume.
 const MAX_SLICES: u32 = 100_000;
 
@@ -157,6 +165,15 @@ impl CorrSumParams {
                 format!(
                     "the delay ({tau} µs) is shorter than one slice ({} µs): paired slices would share events and correlate with themselves; use a longer delay or fewer slices",
                     t as f64 / n as f64
+                ),
+            ));
+        }
+        if !(0.0..=MAX_PEAK_SMOOTHING_PX).contains(&self.peak_smoothing_px) {
+            return Err(Error::parameter(
+                "peak_smoothing_px",
+                format!(
+                    "must be between 0 (off) and {MAX_PEAK_SMOOTHING_PX} px, got {}",
+                    self.peak_smoothing_px
                 ),
             ));
         }
@@ -382,7 +399,8 @@ impl Estimator for SumOfCorrelation {
             result.status = Status::OUT_OF_RANGE;
             return result;
         }
-        let [px, py] = refine_tilted(&scratch.plane, pw, &peak, self.params.fit);
+        let sigma = self.params.peak_smoothing_px;
+        let [px, py] = refine_smoothed(&scratch.plane, [pw, ph], &peak, sigma, self.params.fit);
         let dx = (offsets[0][0] + offsets[1][0]) as f64 + px - shape.rx as f64;
         let dy = (offsets[0][1] + offsets[1][1]) as f64 + py - shape.ry as f64;
         result.u = dx / tau_ms;
@@ -419,6 +437,10 @@ impl Estimator for SumOfCorrelation {
             ("weighting".into(), weighting.into()),
             ("min_events".into(), p.min_events.to_string()),
             ("search_radius".into(), radius),
+            (
+                "peak_smoothing".into(),
+                format!("{} px", p.peak_smoothing_px),
+            ),
         ]
     }
 }

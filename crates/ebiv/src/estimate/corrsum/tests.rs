@@ -1,6 +1,6 @@
 //! Kernel tests: direct and FFT planes against a dense evaluation of the definition.
 
-use super::fit::refine_tilted;
+use super::fit::{refine_smoothed, refine_tilted};
 use super::fourier::Fourier;
 use super::voxels::{
     slice_statistics, Overlap, PlaneShape, SliceStats, SubVolume, Voxeliser, Voxels,
@@ -354,6 +354,14 @@ fn parameters_validate_and_deserialise() {
             search_radius_px: Some(0),
             ..Default::default()
         },
+        CorrSumParams {
+            peak_smoothing_px: -1.0,
+            ..Default::default()
+        },
+        CorrSumParams {
+            peak_smoothing_px: f64::NAN,
+            ..Default::default()
+        },
     ];
     for p in bad {
         assert!(p.validate().is_err(), "{p:?}");
@@ -395,4 +403,27 @@ fn tilted_peaks_with_a_negative_neighbour_are_fitted_in_two_dimensions() {
         axis_wise > 0.1,
         "the axis-wise fall-back is biased here: {peak:?}"
     );
+}
+
+/// Smoothing a Gaussian peak with a Gaussian keeps its centre: the smoothed fit finds
+/// tilted and round peaks anywhere between pixels.
+#[test]
+fn smoothed_fit_keeps_the_centre_of_a_gaussian_peak() {
+    let (w, h) = (15usize, 15usize);
+    for (cx, cy, tilt) in [(6.3, 7.4, 0.0), (7.5, 6.05, 0.6), (8.85, 7.7, -0.4)] {
+        let plane: Vec<f64> = (0..w * h)
+            .map(|i| {
+                let (x, y) = ((i % w) as f64 - cx, (i / w) as f64 - cy);
+                (-(x * x + y * y + 2.0 * tilt * x * y) / (2.0 * 0.8 * 0.8)).exp()
+            })
+            .collect();
+        let peak = find_peak(&plane, w, h, SubPixelFit::Gaussian2d, 2).unwrap();
+        for sigma in [0.7, 1.0, 1.5] {
+            let [x, y] = refine_smoothed(&plane, [w, h], &peak, sigma, SubPixelFit::Gaussian2d);
+            assert!(
+                (x - cx).abs() < 0.01 && (y - cy).abs() < 0.01,
+                "σ {sigma}: ({x}, {y}) vs ({cx}, {cy})"
+            );
+        }
+    }
 }
