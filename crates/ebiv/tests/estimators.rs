@@ -101,7 +101,7 @@ fn peak_smoothing_reduces_peak_locking_of_half_pixel_displacements() {
 /// not reached: with the exact (true) predictor the last pass itself gives RMS ≈ 0.03 px/ms
 /// here, about what both estimators give for a uniform flow oblique to the pixel grid
 /// (0.02–0.03 px/ms), so the bound is the measured DVR (115 corrsum with the peak smoothing,
-119 motion) less a margin.
+/// 119 motion) less a margin.
 /// The truth is compared at each vector's window centre and field time (`assess`).
 #[test]
 fn turntable_event_deformation_removes_gradient_error() {

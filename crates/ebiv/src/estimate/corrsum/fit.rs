@@ -95,7 +95,7 @@ pub(super) fn refine_smoothed(
     sigma: f64,
     fit: SubPixelFit,
 ) -> [f64; 2] {
-    if !(sigma > 0.0) || peak.on_edge {
+    if sigma.is_nan() || sigma <= 0.0 || peak.on_edge {
         return refine_tilted(plane, width, peak, fit);
     }
     let reach = (2.0 * sigma).ceil() as isize;
@@ -113,11 +113,10 @@ pub(super) fn refine_smoothed(
             }
             for (j, tj) in (-reach..=reach).zip(&taps) {
                 let cc = c + j;
-                let v = if cc < 0 || cc >= w {
+                if cc < 0 || cc >= w {
                     continue;
-                } else {
-                    plane[(rr * w + cc) as usize]
-                };
+                }
+                let v = plane[(rr * w + cc) as usize];
                 if v.is_finite() {
                     sum += ti * tj * v;
                     weight += ti * tj;
