@@ -98,39 +98,14 @@ pub(super) fn refine_smoothed(
     if sigma.is_nan() || sigma <= 0.0 || peak.on_edge {
         return refine_tilted(plane, width, peak, fit);
     }
-    let reach = (2.0 * sigma).ceil() as isize;
-    let taps: Vec<f64> = (-reach..=reach)
-        .map(|k| (-((k * k) as f64) / (2.0 * sigma * sigma)).exp())
-        .collect();
     let (w, h) = (width as isize, height as isize);
-    // The plane's weighted mean over the kernel, renormalised where it leaves the plane.
-    let smoothed = |r: isize, c: isize| {
-        let (mut sum, mut weight) = (0.0, 0.0);
-        for (i, ti) in (-reach..=reach).zip(&taps) {
-            let rr = r + i;
-            if rr < 0 || rr >= h {
-                continue;
-            }
-            for (j, tj) in (-reach..=reach).zip(&taps) {
-                let cc = c + j;
-                if cc < 0 || cc >= w {
-                    continue;
-                }
-                let v = plane[(rr * w + cc) as usize];
-                if v.is_finite() {
-                    sum += ti * tj * v;
-                    weight += ti * tj;
-                }
-            }
-        }
-        sum / weight
-    };
-    // The smoothed maximum lies at or next to the plane's (not on the plane's border).
     let (r0, c0) = (peak.row as isize, peak.col as isize);
-    let mut best = (r0, c0, smoothed(r0, c0));
+    let smoothed = Smoothed::around(plane, [w, h], [r0, c0], sigma);
+    // The smoothed maximum lies at or next to the plane's (not on the plane's border).
+    let mut best = (r0, c0, smoothed.at(r0, c0));
     for r in (r0 - 1).max(1)..=(r0 + 1).min(h - 2) {
         for c in (c0 - 1).max(1)..=(c0 + 1).min(w - 2) {
-            let v = smoothed(r, c);
+            let v = smoothed.at(r, c);
             if v > best.2 {
                 best = (r, c, v);
             }
@@ -139,7 +114,7 @@ pub(super) fn refine_smoothed(
     let (r0, c0, value) = best;
     let mut local = [0.0; 9];
     for (k, v) in local.iter_mut().enumerate() {
-        *v = smoothed(r0 + k as isize / 3 - 1, c0 + k as isize % 3 - 1);
+        *v = smoothed.at(r0 + k as isize / 3 - 1, c0 + k as isize % 3 - 1);
     }
     let axis = |a: f64, b: f64, c: f64| {
         let fit1 = if fit == SubPixelFit::Gaussian2d {
@@ -160,4 +135,76 @@ pub(super) fn refine_smoothed(
     };
     let [x, y] = refine_tilted(&local, 3, &centre, fit);
     [c0 as f64 - 1.0 + x, r0 as f64 - 1.0 + y]
+}
+
+/// Half-width of the smoothed block around the plane's maximum: candidates at ±1 and their
+/// 3 × 3 neighbourhoods.
+const BLOCK: isize = 2;
+/// Widest kernel half-width, taps (σ ≤ 5 px).
+const MAX_REACH: usize = 10;
+
+/// The plane smoothed by a truncated Gaussian (±2σ) on the 5 × 5 block around a point,
+/// renormalised where the kernel leaves the plane or meets non-finite values: a separable
+/// pass along rows, then along columns, carrying values and weights.
+struct Smoothed {
+    origin: [isize; 2],
+    values: [[f64; 5]; 5],
+}
+
+impl Smoothed {
+    fn around(plane: &[f64], [w, h]: [isize; 2], [r0, c0]: [isize; 2], sigma: f64) -> Self {
+        let reach = ((2.0 * sigma).ceil() as usize).min(MAX_REACH);
+        let mut taps = [0.0; 2 * MAX_REACH + 1];
+        for (k, t) in taps.iter_mut().take(2 * reach + 1).enumerate() {
+            let d = k as f64 - reach as f64;
+            *t = (-d * d / (2.0 * sigma * sigma)).exp();
+        }
+        let taps = &taps[..2 * reach + 1];
+        let reach = reach as isize;
+        // Row pass: for each row of the block's reach, Σ t v and Σ t at the block's columns.
+        let rows = (2 * (BLOCK + reach) + 1) as usize;
+        let mut across = [[(0.0, 0.0); 5]; 2 * (BLOCK as usize + MAX_REACH) + 1];
+        for (k, line) in across.iter_mut().take(rows).enumerate() {
+            let r = r0 - BLOCK - reach + k as isize;
+            if r < 0 || r >= h {
+                continue;
+            }
+            for (m, cell) in line.iter_mut().enumerate() {
+                let c = c0 - BLOCK + m as isize;
+                for (j, t) in (-reach..=reach).zip(taps) {
+                    let cc = c + j;
+                    if cc < 0 || cc >= w {
+                        continue;
+                    }
+                    let v = plane[(r * w + cc) as usize];
+                    if v.is_finite() {
+                        cell.0 += t * v;
+                        cell.1 += t;
+                    }
+                }
+            }
+        }
+        // Column pass.
+        let mut values = [[f64::NAN; 5]; 5];
+        for (n, row) in values.iter_mut().enumerate() {
+            for (m, out) in row.iter_mut().enumerate() {
+                let (mut sum, mut weight) = (0.0, 0.0);
+                for (i, t) in taps.iter().enumerate() {
+                    let (v, wt) = across[n + i][m];
+                    sum += t * v;
+                    weight += t * wt;
+                }
+                *out = sum / weight;
+            }
+        }
+        Smoothed {
+            origin: [r0 - BLOCK, c0 - BLOCK],
+            values,
+        }
+    }
+
+    /// The smoothed value at plane row `r`, column `c` (within the block).
+    fn at(&self, r: isize, c: isize) -> f64 {
+        self.values[(r - self.origin[0]) as usize][(c - self.origin[1]) as usize]
+    }
 }
