@@ -3,7 +3,7 @@
 use std::ops::Range;
 
 use super::active::ActiveSet;
-use super::detector::{Pending, Pixel, StepContext};
+use super::detector::{Pixel, StepContext};
 use super::params::SensorParams;
 use super::response::{clean_irradiance, Curve, Response, MIN_THRESHOLD};
 use super::{PixelCounters, SimEvent};
@@ -50,8 +50,9 @@ pub struct SensorBand {
     pub(super) geometry: Geometry,
     pub(super) rows: Range<u32>,
     pixels: Vec<Pixel>,
-    /// New samples of the pixels marked changed in `active`.
-    pending: Vec<Pending>,
+    /// New samples `(local pixel, irradiance)` for the step being prepared, one per pixel
+    /// (the pixel carries the `CHANGED` mark).
+    changed: Vec<(u32, f32)>,
     /// Per active pixel, the time before which it need not be visited unless changed.
     wake: Vec<f64>,
     active: ActiveSet,
@@ -119,8 +120,10 @@ impl SensorBand {
             geometry,
             rows,
             pixels,
-            pending: vec![Pending::default(); n],
-            wake: vec![f64::NEG_INFINITY; n],
+            changed: Vec::new(),
+            // Read only for members of the active set, which set it first; zeroed memory is
+            // not touched (or paged in) until then.
+            wake: vec![0.0; n],
             active: ActiveSet::new(n),
             t_now: 0.0,
             t_next: 0.0,
@@ -184,6 +187,10 @@ impl SensorBand {
             let u = self.response.log(irr);
             px.adapt(irr, u, t0);
         }
+        for &(local, _) in &self.changed {
+            self.pixels[local as usize].clear_changed();
+        }
+        self.changed.clear();
         self.active.clear();
         self.t_now = t0;
         self.t_next = t0;
@@ -236,12 +243,24 @@ impl SensorBand {
     /// change is allowed but costs a full pixel update.
     #[inline]
     pub fn set_input(&mut self, local: usize, irr: f32) {
-        let px = &self.pixels[local];
-        self.pending[local] = Pending::new(&self.response, px, irr, self.t_now, self.t_next);
-        self.active.insert_changed(local);
+        if self.pixels[local].mark_changed() {
+            self.changed.push((local as u32, irr));
+        } else if let Some(entry) = self
+            .changed
+            .iter_mut()
+            .rev()
+            .find(|e| e.0 as usize == local)
+        {
+            entry.1 = irr;
+        }
     }
 
     /// Run the step begun by [`SensorBand::begin_step`] (see [`SensorBand::advance`]).
+    ///
+    /// Members of the active set without a new sample are visited when due; then every pixel
+    /// with a new sample is updated, joining the active set if it may fire while its input
+    /// stays constant and leaving it otherwise. Each pixel's update depends on that pixel
+    /// alone, so the order of the two passes changes nothing but the order of `out`.
     pub fn advance_marked(&mut self, out: &mut Vec<SimEvent>) {
         let (ta, tb) = (self.t_now, self.t_next);
         let first = self.rows.start as u64 * self.geometry.width as u64;
@@ -254,22 +273,38 @@ impl SensorBand {
             counters: &mut self.counters,
             out,
         };
-        let (pixels, pending, wake) = (&mut self.pixels, &self.pending, &mut self.wake);
+        let (pixels, wake, active) = (&mut self.pixels, &mut self.wake, &mut self.active);
         let mut updates = 0;
-        self.active.retain(|local, changed| {
-            if !changed && wake[local] > tb {
-                return true;
-            }
-            updates += 1;
-            let new = changed.then(|| &pending[local]);
-            match ctx.step(&mut pixels[local], local as u32, ta, tb, new) {
-                Some(next) => {
-                    wake[local] = next;
-                    true
+        if active.len() > 0 {
+            active.retain(|local| {
+                let px = &mut pixels[local];
+                if px.changed() || wake[local] > tb {
+                    return true;
                 }
-                None => false,
+                updates += 1;
+                match ctx.step(px, local as u32, ta, tb, None) {
+                    Some(next) => {
+                        wake[local] = next;
+                        true
+                    }
+                    None => false,
+                }
+            });
+        }
+        for &(local, irr) in &self.changed {
+            let i = local as usize;
+            let px = &mut pixels[i];
+            px.clear_changed();
+            match ctx.step(px, local, ta, tb, Some(irr)) {
+                Some(next) => {
+                    wake[i] = next;
+                    active.insert(i);
+                }
+                None => active.remove(i),
             }
-        });
+        }
+        updates += self.changed.len() as u64;
+        self.changed.clear();
         self.updates += updates;
         self.t_now = tb;
     }

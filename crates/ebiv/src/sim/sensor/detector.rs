@@ -3,12 +3,17 @@
 
 use super::response::{clean_irradiance, Curve, Response};
 use super::{PixelCounters, SimEvent};
-use crate::sim::fastmath;
 use crate::sim::rng::{Rng, Stream};
 
 /// Bit of [`Pixel::events`]: the pixel is blind (refractory) until `release`, then its
 /// reference is reset.
 const BLIND: u32 = 1 << 31;
+
+/// Bit of [`Pixel::events`]: the pixel has a new input sample for the step being prepared.
+const CHANGED: u32 = 1 << 30;
+
+/// The bits of [`Pixel::events`] that count events.
+const COUNT: u32 = CHANGED - 1;
 
 /// State of one pixel: one cache line.
 #[derive(Debug, Clone, Copy)]
@@ -31,7 +36,8 @@ pub(super) struct Pixel {
     pub(super) theta_off: f64,
     /// Irradiance of the last sample.
     pub(super) irr: f32,
-    /// Events emitted so far (31 bits, indexing the jitter stream) and the `BLIND` bit.
+    /// Events emitted so far (30 bits, indexing the jitter stream) and the `BLIND` and
+    /// `CHANGED` bits.
     events: u32,
 }
 
@@ -59,7 +65,27 @@ impl Pixel {
         self.l_ref = u;
         self.t = t;
         self.release = f64::NEG_INFINITY;
-        self.events &= !BLIND;
+        self.events &= COUNT;
+    }
+
+    /// Mark the pixel as having a new sample; returns whether it was unmarked.
+    #[inline]
+    pub(super) fn mark_changed(&mut self) -> bool {
+        let fresh = self.events & CHANGED == 0;
+        self.events |= CHANGED;
+        fresh
+    }
+
+    /// Whether the pixel has a new sample for the step being prepared.
+    #[inline]
+    pub(super) fn changed(&self) -> bool {
+        self.events & CHANGED != 0
+    }
+
+    /// Clear the mark of [`Pixel::mark_changed`].
+    #[inline]
+    pub(super) fn clear_changed(&mut self) {
+        self.events &= !CHANGED;
     }
 
     #[inline]
@@ -79,53 +105,9 @@ impl Pixel {
     /// Count one event; returns the previous count.
     #[inline]
     fn count_event(&mut self) -> u32 {
-        let n = self.events & !BLIND;
-        self.events = (self.events & BLIND) | (n.wrapping_add(1) & !BLIND);
+        let n = self.events & COUNT;
+        self.events = (self.events & !COUNT) | (n.wrapping_add(1) & COUNT);
         n
-    }
-}
-
-/// A pixel's new input sample and the transcendental parts of its next update, computed
-/// when the sample is given ([`Pending::new`]) rather than in the update itself: the update
-/// of one pixel is a chain of dependent operations, and computing the logarithm and the
-/// exponentials of many pixels in one pass lets the processor overlap them.
-#[derive(Debug, Clone, Copy, Default)]
-pub(super) struct Pending {
-    /// The new irradiance.
-    irr: f32,
-    /// Its log response.
-    u: f64,
-    /// `e^(−ω·(tb − ta))` of the ramp from the old to the new sample over the step `[ta, tb]`
-    /// (ω at the mean irradiance), or NaN (compute it when needed).
-    ramp_decay: f64,
-    /// `e^(−ω·(ta − t))` of the constant-input stretch from the pixel's own time `t` to `ta`,
-    /// or NaN.
-    hold_decay: f64,
-}
-
-impl Pending {
-    /// The sample `irr` (cleaned) for `px`, to be applied over the step `[ta, tb]`.
-    #[inline]
-    pub(super) fn new(r: &Response, px: &Pixel, irr: f32, ta: f64, tb: f64) -> Self {
-        let irr = clean_irradiance(irr);
-        let u = if irr != px.irr { r.log(irr) } else { px.u };
-        let (mut ramp_decay, mut hold_decay) = (f64::NAN, f64::NAN);
-        if r.low_pass() {
-            // The same expressions as `segment` and `Curve::value` use, so the results are
-            // the ones they would compute.
-            let omega = r.omega(0.5 * (px.irr as f64 + irr as f64));
-            ramp_decay = fastmath::exp(-(omega * (tb - ta)));
-            if px.t < ta {
-                let omega = r.omega(0.5 * (px.irr as f64 + px.irr as f64));
-                hold_decay = fastmath::exp(-(omega * (ta - px.t)));
-            }
-        }
-        Pending {
-            irr,
-            u,
-            ramp_decay,
-            hold_decay,
-        }
     }
 }
 
@@ -150,8 +132,7 @@ const TIE: f64 = 1e-9;
 
 impl StepContext<'_> {
     /// Advance one active pixel from its own time to `tb`; its input is constant up to `ta`
-    /// and, with `new`, ramps to the new sample over `[ta, tb]` (`new` was made by
-    /// [`Pending::new`] for this pixel and step).
+    /// and, with `new`, ramps to the new irradiance sample `new` over `[ta, tb]`.
     ///
     /// Returns `None` when the pixel leaves the active set (it cannot fire while its input is
     /// constant), else the time before which it need not be visited again unless its input
@@ -163,18 +144,19 @@ impl StepContext<'_> {
         local: u32,
         ta: f64,
         tb: f64,
-        new: Option<&Pending>,
+        new: Option<f32>,
     ) -> Option<f64> {
         let r = self.response;
-        let new_irr = new.map(|p| p.irr);
-        if let Some(p) = new {
+        if let Some(irr) = new {
+            let irr = clean_irradiance(irr);
+            let u = if irr != px.irr { r.log(irr) } else { px.u };
             if px.t < ta {
                 // A pixel frozen or asleep since `px.t`: its constant-input stretch first.
-                self.segment(px, local, ta, None, p.hold_decay);
+                self.segment(px, local, ta, None);
             }
-            self.segment(px, local, tb, Some((p.irr, p.u)), p.ramp_decay);
+            self.segment(px, local, tb, Some((irr, u)));
         } else {
-            self.segment(px, local, tb, None, f64::NAN);
+            self.segment(px, local, tb, None);
         }
 
         if px.blind() {
@@ -193,7 +175,7 @@ impl StepContext<'_> {
         if omega <= 0.0 {
             return None;
         }
-        if new_irr.is_some() {
+        if new.is_some() {
             return Some(f64::NEG_INFINITY);
         }
         // Constant input: `L` relaxes monotonically towards `u`, which lies beyond a level;
@@ -211,16 +193,9 @@ impl StepContext<'_> {
 
     /// Advance the pixel from `px.t` to `tb`, its input constant or, with `new = (irradiance,
     /// log response)`, ramping linearly in log to the new sample; emit the events of the
-    /// stretch. `decay` is `e^(−ω·(tb − px.t))` if known (see [`Pending`]), else NaN.
+    /// stretch.
     #[inline]
-    fn segment(
-        &mut self,
-        px: &mut Pixel,
-        local: u32,
-        tb: f64,
-        new: Option<(f32, f64)>,
-        decay: f64,
-    ) {
+    fn segment(&mut self, px: &mut Pixel, local: u32, tb: f64, new: Option<(f32, f64)>) {
         let r = self.response;
         let ta = px.t;
         let tb = tb.max(ta);
@@ -231,7 +206,7 @@ impl StepContext<'_> {
         } else {
             Curve::direct(ta, tb, px.u, ub)
         };
-        let lb = curve.end_value(decay);
+        let lb = curve.end_value();
 
         // Fast path: not blind, `L` inside both levels at the end and, if it may have an
         // extremum (which lies on the input line), the input inside them too.

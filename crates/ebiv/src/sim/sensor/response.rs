@@ -231,16 +231,10 @@ impl Curve {
         }
     }
 
-    /// `L(tb)`, given `decay = e^(−ω·(tb − ta))` when known (else NaN): the same value as
-    /// `value(tb)`, bit for bit.
+    /// `L(tb)`.
     #[inline]
-    pub fn end_value(&self, decay: f64) -> f64 {
-        match self.kind {
-            Kind::Relax { gap, m, omega } if !decay.is_nan() => {
-                self.relaxed(gap, m, omega, self.tb - self.ta, 1.0 - decay)
-            }
-            _ => self.value(self.tb),
-        }
+    pub fn end_value(&self) -> f64 {
+        self.value(self.tb)
     }
 
     /// The low-pass response `ds` after `ta`, with `e1 = 1 − e^(−ω·ds)`.
