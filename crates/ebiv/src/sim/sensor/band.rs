@@ -4,11 +4,13 @@ use std::ops::Range;
 
 use super::active::ActiveSet;
 use super::detector::{Pixel, StepContext};
+use super::noise::RowNoiseBound;
 use super::params::SensorParams;
 use super::response::{clean_irradiance, Curve, Response, MIN_THRESHOLD};
 use super::{PixelCounters, SimEvent};
 use crate::error::{Error, Result};
 use crate::event::Geometry;
+use crate::sim::fastmath;
 use crate::sim::rng::{Rng, Stream};
 
 /// Largest sensor side: event coordinates are `u16`.
@@ -82,6 +84,19 @@ impl SensorBand {
     /// event coordinates) is clipped, and parameters are clamped to usable values. Use
     /// [`SensorBand::try_new`] to have them checked instead.
     pub fn new(geometry: Geometry, rows: Range<u32>, params: &SensorParams, seed: u64) -> Self {
+        Self::new_adapted(geometry, rows, params, seed, 0.0, |_, _| 0.0)
+    }
+
+    /// [`SensorBand::new`] followed by [`SensorBand::adapt`]`(t0_us, irradiance)`, in one pass
+    /// over the pixels.
+    pub fn new_adapted(
+        geometry: Geometry,
+        rows: Range<u32>,
+        params: &SensorParams,
+        seed: u64,
+        t0_us: f64,
+        irradiance: impl Fn(u32, u32) -> f32,
+    ) -> Self {
         let geometry = Geometry::new(geometry.width.min(MAX_SIDE), geometry.height.min(MAX_SIDE));
         let end = rows.end.min(geometry.height);
         let rows = rows.start.min(end)..end;
@@ -89,6 +104,7 @@ impl SensorBand {
         let width = geometry.width as usize;
         let n = width * rows.len();
         let first = rows.start as u64 * geometry.width as u64;
+        let t0 = if t0_us.is_finite() { t0_us } else { 0.0 };
 
         let cov = super::response::clean(params.noise_rate_cov_decades, 0.0, 2.0, 0.0);
         let sigma_ln = cov * std::f64::consts::LN_10;
@@ -98,25 +114,44 @@ impl SensorBand {
         let mut pixels = Vec::with_capacity(n);
         let mut noise_factor = Vec::with_capacity(if cov > 0.0 { n } else { 0 });
         let mut hot = Vec::new();
+        let mut row_noise_bound = Vec::with_capacity(rows.len());
+        let mut bound = RowNoiseBound::new(params, &response);
+        // Scenes are mostly one irradiance: reuse the last logarithm.
+        let (mut last_irr, mut last_u) = (0.0, response.log(0.0));
         for i in 0..n {
+            let (x, y) = ((i % width) as u32, rows.start + (i / width) as u32);
             // Fixed-pattern draws in a fixed order, whatever the parameters (v2e: frozen
-            // N(θ, σ) thresholds clamped ≥ 0.01, log-normal noise-rate factor).
+            // N(θ, σ) thresholds clamped ≥ 0.01, log-normal noise-rate factor); the factor
+            // comes last, so switching it off leaves thresholds and hot pixels as they are.
             let mut rng = Rng::new(seed, Stream::FixedPattern, first + i as u64);
-            let z_on = rng.normal();
-            let z_off = rng.normal();
-            let z_noise = rng.normal();
+            let (z_on, z_off) = (rng.normal_fast(), rng.normal_fast());
             let u_hot = rng.uniform();
             let theta_on = (response.theta_on + response.sigma * z_on).max(MIN_THRESHOLD);
             let theta_off = (response.theta_off + response.sigma * z_off).max(MIN_THRESHOLD);
-            pixels.push(Pixel::new(theta_on, theta_off));
+            let mut factor = 1.0;
             if cov > 0.0 {
-                noise_factor.push(((sigma_ln * z_noise).exp() * factor_norm) as f32);
+                factor = (fastmath::exp(sigma_ln * rng.normal_fast()) * factor_norm) as f32;
+                noise_factor.push(factor);
             }
             if u_hot < hot_fraction {
                 hot.push(i as u32);
             }
+            bound.add(factor as f64, theta_on, theta_off);
+            if x as usize + 1 == width {
+                row_noise_bound.push(bound.take());
+            }
+            let irr = clean_irradiance(irradiance(x, y));
+            if irr != last_irr {
+                (last_irr, last_u) = (irr, response.log(irr));
+            }
+            let mut px = Pixel::new(theta_on, theta_off);
+            px.adapt(irr, last_u, t0);
+            pixels.push(px);
         }
-        let mut band = SensorBand {
+        if width == 0 {
+            row_noise_bound.resize(rows.len(), 0.0);
+        }
+        SensorBand {
             geometry,
             rows,
             pixels,
@@ -125,21 +160,18 @@ impl SensorBand {
             // not touched (or paged in) until then.
             wake: vec![0.0; n],
             active: ActiveSet::new(n),
-            t_now: 0.0,
-            t_next: 0.0,
+            t_now: t0,
+            t_next: t0,
             response,
             seed,
             counters: PixelCounters::default(),
             noise_factor,
-            row_noise_bound: Vec::new(),
+            row_noise_bound,
             hot,
             params: params.clone(),
             noise_calls: 0,
             updates: 0,
-        };
-        band.row_noise_bound = band.compute_row_noise_bounds();
-        band.adapt(0.0, |_, _| 0.0);
-        band
+        }
     }
 
     /// [`SensorBand::new`] after checking the parameters, the geometry and the rows.
@@ -180,12 +212,16 @@ impl SensorBand {
     pub fn adapt(&mut self, t0_us: f64, irradiance: impl Fn(u32, u32) -> f32) {
         let t0 = if t0_us.is_finite() { t0_us } else { 0.0 };
         let width = self.geometry.width;
+        // Scenes are mostly one irradiance: reuse the last logarithm.
+        let (mut last_irr, mut last_u) = (0.0, self.response.log(0.0));
         for (i, px) in self.pixels.iter_mut().enumerate() {
             let x = (i % width as usize) as u32;
             let y = self.rows.start + (i / width as usize) as u32;
             let irr = clean_irradiance(irradiance(x, y));
-            let u = self.response.log(irr);
-            px.adapt(irr, u, t0);
+            if irr != last_irr {
+                (last_irr, last_u) = (irr, self.response.log(irr));
+            }
+            px.adapt(irr, last_u, t0);
         }
         for &(local, _) in &self.changed {
             self.pixels[local as usize].clear_changed();
@@ -295,7 +331,11 @@ impl SensorBand {
             let i = local as usize;
             let px = &mut pixels[i];
             px.clear_changed();
-            match ctx.step(px, local, ta, tb, Some(irr)) {
+            let next = match StepContext::quiet_ramp(ctx.response, px, ta, tb, irr) {
+                Some(next) => next,
+                None => ctx.step(px, local, ta, tb, Some(irr)),
+            };
+            match next {
                 Some(next) => {
                     wake[i] = next;
                     active.insert(i);

@@ -191,6 +191,53 @@ impl StepContext<'_> {
         }
     }
 
+    /// The common case of [`StepContext::step`] with a new sample, done without a call: a
+    /// pixel with the low-pass on, up to date at `ta`, not blind, whose `L` neither reaches a
+    /// level during the ramp over `[ta, tb]` nor can (input and output inside both levels,
+    /// or no extremum inside the step). Same arithmetic as `segment` (the exact low-pass
+    /// solution of [`Curve::low_pass`]), so the same result bit for bit.
+    ///
+    /// Returns `None` if the pixel is not such a case (nothing changed; use `step`), else
+    /// what `step` returns. Most updates of a recording are of this kind: the pixels a
+    /// particle image brushes without changing them by a threshold.
+    #[inline(always)]
+    pub(super) fn quiet_ramp(
+        r: &Response,
+        px: &mut Pixel,
+        ta: f64,
+        tb: f64,
+        irr: f32,
+    ) -> Option<Option<f64>> {
+        if px.t != ta || px.blind() || !r.low_pass() {
+            return None;
+        }
+        let irr_b = clean_irradiance(irr);
+        let ub = if irr_b != px.irr { r.log(irr_b) } else { px.u };
+        let omega = r.omega(0.5 * (px.irr as f64 + irr_b as f64));
+        if !(omega > 0.0 && tb - ta > 1e-9) {
+            return None;
+        }
+        let curve = Curve::low_pass(ta, tb, px.l, px.u, ub, omega);
+        let lb = curve.end_value();
+        let hi = px.l_ref + px.theta_on - TIE;
+        let lo = px.l_ref - px.theta_off + TIE;
+        let inside = |v: f64| v < hi && v > lo;
+        let (ua_in, ub_in) = (inside(px.u), inside(ub));
+        if !(inside(lb) && (ua_in && ub_in || !curve.may_turn())) {
+            return None;
+        }
+        px.l = lb;
+        px.u = ub;
+        px.irr = irr_b;
+        px.t = tb;
+        // As at the end of `step`: settled, or may fire with its input held.
+        Some(if ub_in || r.omega(irr_b as f64) <= 0.0 {
+            None
+        } else {
+            Some(f64::NEG_INFINITY)
+        })
+    }
+
     /// Advance the pixel from `px.t` to `tb`, its input constant or, with `new = (irradiance,
     /// log response)`, ramping linearly in log to the new sample; emit the events of the
     /// stretch.
@@ -304,7 +351,7 @@ impl StepContext<'_> {
         let k = px.count_event();
         if r.jitter > 0.0 {
             let index = ((k as u64) << 32) | self.first.wrapping_add(local) as u64;
-            let z = Rng::new(self.jitter_seed, Stream::Temporal, index).normal();
+            let z = Rng::new(self.jitter_seed, Stream::Temporal, index).normal_fast();
             trip += (r.jitter * z).max(-r.latency);
         }
         if trip < px.release {
