@@ -3,7 +3,7 @@
 use std::ops::Range;
 
 use super::active::ActiveSet;
-use super::detector::{Pixel, StepContext};
+use super::detector::{Pixel, Ramp, StepContext};
 use super::noise::RowNoiseBound;
 use super::params::SensorParams;
 use super::response::{clean_irradiance, Curve, Response, MIN_THRESHOLD};
@@ -55,6 +55,8 @@ pub struct SensorBand {
     /// New samples `(local pixel, irradiance)` for the step being prepared, one per pixel
     /// (the pixel carries the `CHANGED` mark).
     changed: Vec<(u32, f32)>,
+    /// Scratch: [`StepContext::prepare`] of each entry of `changed`.
+    ramps: Vec<Ramp>,
     /// Per active pixel, the time before which it need not be visited unless changed.
     wake: Vec<f64>,
     active: ActiveSet,
@@ -156,6 +158,7 @@ impl SensorBand {
             rows,
             pixels,
             changed: Vec::new(),
+            ramps: Vec::new(),
             // Read only for members of the active set, which set it first; zeroed memory is
             // not touched (or paged in) until then.
             wake: vec![0.0; n],
@@ -327,11 +330,16 @@ impl SensorBand {
                 }
             });
         }
-        for &(local, irr) in &self.changed {
+        let ramps = &mut self.ramps;
+        ramps.clear();
+        ramps.extend(self.changed.iter().map(|&(local, irr)| {
+            StepContext::prepare(ctx.response, &pixels[local as usize], irr, tb - ta)
+        }));
+        for (&(local, irr), ramp) in self.changed.iter().zip(ramps.iter()) {
             let i = local as usize;
             let px = &mut pixels[i];
             px.clear_changed();
-            let next = match StepContext::quiet_ramp(ctx.response, px, ta, tb, irr) {
+            let next = match StepContext::quiet_ramp(ctx.response, px, ta, tb, irr, ramp) {
                 Some(next) => next,
                 None => ctx.step(px, local, ta, tb, Some(irr)),
             };

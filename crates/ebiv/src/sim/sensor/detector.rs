@@ -3,6 +3,7 @@
 
 use super::response::{clean_irradiance, Curve, Response};
 use super::{PixelCounters, SimEvent};
+use crate::sim::fastmath;
 use crate::sim::rng::{Rng, Stream};
 
 /// Bit of [`Pixel::events`]: the pixel is blind (refractory) until `release`, then its
@@ -111,6 +112,15 @@ impl Pixel {
     }
 }
 
+/// The log response `u` of a new sample, the low-pass corner `omega` of the ramp to it
+/// (at the mean irradiance) and `decay = e^(−ω·Δt)` over the step ([`StepContext::prepare`]).
+#[derive(Debug, Clone, Copy, Default)]
+pub(super) struct Ramp {
+    u: f64,
+    omega: f64,
+    decay: f64,
+}
+
 /// Everything one step of one pixel needs besides the pixel.
 pub(super) struct StepContext<'a> {
     pub(super) response: &'a Response,
@@ -191,11 +201,29 @@ impl StepContext<'_> {
         }
     }
 
+    /// The transcendental parts of the update of `px` by the new sample `irr` over a step of
+    /// `dt` µs (see [`Ramp`]). Each pixel's update is a chain of dependent operations;
+    /// computing these parts for all new samples of a step in one loop of independent
+    /// iterations lets the processor overlap them.
+    #[inline(always)]
+    pub(super) fn prepare(r: &Response, px: &Pixel, irr: f32, dt: f64) -> Ramp {
+        let irr = clean_irradiance(irr);
+        // `px.u` is `log(px.irr)`, so this is also right for an unchanged irradiance.
+        let u = r.log(irr);
+        let omega = r.omega(0.5 * (px.irr as f64 + irr as f64));
+        Ramp {
+            u,
+            omega,
+            decay: fastmath::exp(-(omega * dt)),
+        }
+    }
+
     /// The common case of [`StepContext::step`] with a new sample, done without a call: a
     /// pixel with the low-pass on, up to date at `ta`, not blind, whose `L` neither reaches a
     /// level during the ramp over `[ta, tb]` nor can (input and output inside both levels,
     /// or no extremum inside the step). Same arithmetic as `segment` (the exact low-pass
-    /// solution of [`Curve::low_pass`]), so the same result bit for bit.
+    /// solution of [`Curve::low_pass`]), so the same result bit for bit. `ramp` is
+    /// [`StepContext::prepare`] of the sample `irr` for this pixel and step.
     ///
     /// Returns `None` if the pixel is not such a case (nothing changed; use `step`), else
     /// what `step` returns. Most updates of a recording are of this kind: the pixels a
@@ -207,18 +235,15 @@ impl StepContext<'_> {
         ta: f64,
         tb: f64,
         irr: f32,
+        ramp: &Ramp,
     ) -> Option<Option<f64>> {
-        if px.t != ta || px.blind() || !r.low_pass() {
+        let omega = ramp.omega;
+        if px.t != ta || px.blind() || !r.low_pass() || !(omega > 0.0 && tb - ta > 1e-9) {
             return None;
         }
-        let irr_b = clean_irradiance(irr);
-        let ub = if irr_b != px.irr { r.log(irr_b) } else { px.u };
-        let omega = r.omega(0.5 * (px.irr as f64 + irr_b as f64));
-        if !(omega > 0.0 && tb - ta > 1e-9) {
-            return None;
-        }
+        let ub = ramp.u;
         let curve = Curve::low_pass(ta, tb, px.l, px.u, ub, omega);
-        let lb = curve.end_value();
+        let lb = curve.end_value_from(ramp.decay);
         let hi = px.l_ref + px.theta_on - TIE;
         let lo = px.l_ref - px.theta_off + TIE;
         let inside = |v: f64| v < hi && v > lo;
@@ -226,6 +251,7 @@ impl StepContext<'_> {
         if !(inside(lb) && (ua_in && ub_in || !curve.may_turn())) {
             return None;
         }
+        let irr_b = clean_irradiance(irr);
         px.l = lb;
         px.u = ub;
         px.irr = irr_b;
