@@ -200,7 +200,12 @@ impl Curve {
         if !(omega > 0.0 && dt > 0.0) {
             return Curve::constant(ta, tb.max(ta), la);
         }
-        let m = if dt > 1e-9 { (ub - ua) / dt } else { 0.0 };
+        // A product with the reciprocal: a step's many ramps share one division.
+        let m = if dt > 1e-9 {
+            (ub - ua) * (1.0 / dt)
+        } else {
+            0.0
+        };
         Curve {
             ta,
             tb,
