@@ -100,13 +100,33 @@ impl Rng {
     /// wedges (about 1 % of draws) and the tail beyond 3.44. Exactly normal; the tables and
     /// the rare exponentials use deterministic functions, so results are the same on every
     /// machine. For the simulator's many per-pixel and per-event draws.
-    #[inline]
+    #[inline(always)]
     pub fn normal_fast(&mut self) -> f64 {
         let z = ziggurat();
+        let (layer, u) = self.ziggurat_draw();
+        if u.abs() < z.ratio[layer] {
+            return u * z.x[layer];
+        }
+        self.normal_rare(layer, u)
+    }
+
+    /// A layer of the ziggurat (low 7 bits) and a uniform abscissa in (−1, 1) (top 53 bits)
+    /// from one 64-bit draw.
+    #[inline(always)]
+    fn ziggurat_draw(&mut self) -> (usize, f64) {
+        let bits = self.next_u64();
+        let layer = (bits & (ZIGGURAT_LAYERS as u64 - 1)) as usize;
+        let u = 2.0 * ((bits >> 11) as f64 * (1.0 / (1u64 << 53) as f64)) - 1.0;
+        (layer, u)
+    }
+
+    /// The rest of [`Rng::normal_fast`] after a draw `(layer, u)` outside the layer's inner
+    /// rectangle: the tail, or the wedge test, then new draws until one is accepted.
+    #[cold]
+    #[inline(never)]
+    fn normal_rare(&mut self, mut layer: usize, mut u: f64) -> f64 {
+        let z = ziggurat();
         loop {
-            let bits = self.next_u64();
-            let layer = (bits & (ZIGGURAT_LAYERS as u64 - 1)) as usize;
-            let u = 2.0 * ((bits >> 11) as f64 * (1.0 / (1u64 << 53) as f64)) - 1.0;
             if u.abs() < z.ratio[layer] {
                 return u * z.x[layer];
             }
@@ -120,6 +140,7 @@ impl Rng {
             if f1 + self.uniform() * (f0 - f1) < 1.0 {
                 return x;
             }
+            (layer, u) = self.ziggurat_draw();
         }
     }
 
