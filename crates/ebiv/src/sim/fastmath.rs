@@ -32,7 +32,7 @@ const SHIFT: f64 = 6_755_399_441_055_744.0;
 
 /// `e^x`. Relative error < 4.5e-16 (2 ulp) for |x| < 708 (< 9e-16 up to 709.78); 0 for
 /// x ≤ −708, `+∞` above 709.78, NaN for NaN.
-#[inline]
+#[inline(always)]
 pub fn exp(x: f64) -> f64 {
     if x.abs() >= 708.0 || x.is_nan() {
         return exp_edge(x);
@@ -70,7 +70,7 @@ fn exp_edge(x: f64) -> f64 {
 
 /// `ln x`. Absolute error < 3e-16 + 2.3e-16·|ln x| (about 1 ulp) for positive normal `x`; other inputs
 /// (0, subnormal, negative, ∞, NaN) go to `f64::ln`.
-#[inline]
+#[inline(always)]
 pub fn ln(x: f64) -> f64 {
     let bits = x.to_bits();
     let biased = bits >> 52;

@@ -9,7 +9,7 @@
 
 use super::flow::Flow;
 use super::particles::{Particle, ParticleCloud, SeedingParams};
-use super::scene::{IlluminationParams, ParticleRenderer};
+use super::scene::{IlluminationParams, ParticleRenderer, Spot};
 use super::sensor::{read_out, ReadoutReport, SensorBand, SensorParams, SimEvent};
 use crate::error::{Error, Result};
 use crate::event::{EventBuffer, Geometry};
@@ -142,46 +142,30 @@ impl Simulation {
         let speed = self.flow.max_speed(w, h, t0).max(1e-6);
         let margin = (3.0 * self.seeding.diameter + 2.0 + speed * self.max_step_us * 1e-3).ceil();
         let mut cloud = ParticleCloud::seed(&self.seeding, w, h, margin, self.seed);
-        let mut bands: Vec<Band> = (0..g.height.div_ceil(BAND_ROWS))
-            .into_par_iter()
-            .map(|b| {
-                let rows = b * BAND_ROWS..((b + 1) * BAND_ROWS).min(g.height);
-                let n = (rows.end - rows.start) as usize * g.width as usize;
-                Band {
-                    sensor: SensorBand::new(g, rows.clone(), &self.sensor, self.seed),
-                    rows,
-                    value: vec![0.0; n],
-                    acc: vec![0.0; n],
-                    mark: vec![false; n],
-                    lit: Vec::new(),
-                    touched: Vec::new(),
-                    events: Vec::new(),
-                }
-            })
-            .collect();
-
-        // The sensor starts adapted to the scene at t0.
+        // The sensor starts adapted to the scene at t0: each band renders its first sample
+        // and builds its pixels adapted to it, in one pass.
         let sorter = ParticleRenderer::new(&self.seeding, &self.illumination, g);
         let mut buckets = Vec::new();
+        let n_bands = g.height.div_ceil(BAND_ROWS) as usize;
         bucket_by_band(
             &cloud.particles,
             &sorter,
             self.illumination.sheet(t0),
-            bands.len(),
+            n_bands,
             &mut buckets,
         );
-        bands.par_iter_mut().zip(buckets.par_iter()).for_each_init(
-            || ParticleRenderer::new(&self.seeding, &self.illumination, g),
-            |renderer, (band, bucket)| {
-                band.render(renderer, bucket, &self.illumination, t0, g);
-                band.commit_lit(&self.illumination, t0, g);
-                let value = &band.value;
-                let rows = band.rows.clone();
-                band.sensor.adapt(t0, |x, y| {
-                    value[(y - rows.start) as usize * g.width as usize + x as usize]
-                });
-            },
-        );
+        let mut bands: Vec<Band> = buckets
+            .par_iter()
+            .enumerate()
+            .map_init(
+                || ParticleRenderer::new(&self.seeding, &self.illumination, g),
+                |renderer, (b, bucket)| {
+                    let b = b as u32;
+                    let rows = b * BAND_ROWS..((b + 1) * BAND_ROWS).min(g.height);
+                    Band::start(self, rows, renderer, bucket, t0)
+                },
+            )
+            .collect();
 
         let mut tracks = Vec::new();
         let mut next_track = t0;
@@ -193,7 +177,6 @@ impl Simulation {
         // stay in cache and the scheduling cost is paid once per batch. Each band sees exactly
         // the same sequence of samples as one step at a time would give it. The next batch's
         // particle motion is computed while the bands process the current one.
-        let n_bands = bands.len();
         let mut fill = |batch: &mut Vec<Sample>| -> usize {
             let mut used = 0;
             while used < SAMPLES_PER_BATCH && t < t_end {
@@ -248,7 +231,6 @@ impl Simulation {
                                 band.render_scaled(
                                     renderer,
                                     &sample.buckets[b],
-                                    sample.light,
                                     sample.t,
                                     g,
                                     &self.illumination,
@@ -303,27 +285,28 @@ impl Simulation {
     }
 }
 
-/// The particles whose image may reach each of `bands` bands at light factor `light`, copied
-/// into `buckets` (so that each band reads its particles from contiguous memory). A particle
-/// goes to exactly the bands in which [`ParticleRenderer::add`] draws something.
+/// The images of the particles at light factor `light`, sorted into the `bands` bands they
+/// may reach (so that each band reads its spots from contiguous memory). A particle goes to
+/// exactly the bands in which [`ParticleRenderer::draw`] may draw something.
 fn bucket_by_band(
     particles: &[Particle],
     renderer: &ParticleRenderer,
     light: f64,
     bands: usize,
-    buckets: &mut Vec<Vec<Particle>>,
+    buckets: &mut Vec<Vec<Spot>>,
 ) {
     buckets.resize_with(bands, Vec::new);
     buckets.iter_mut().for_each(Vec::clear);
     let last = bands as i64 - 1;
     for p in particles {
-        let Some((y0, y1)) = renderer.rows_reached(p, light) else {
+        let Some(spot) = renderer.spot(p, light) else {
             continue;
         };
+        let (y0, y1) = spot.rows();
         let lo = y0.max(0) / BAND_ROWS as i64;
         let hi = (y1.max(0) / BAND_ROWS as i64).min(last);
         for b in lo..=hi {
-            buckets[b as usize].push(*p);
+            buckets[b as usize].push(spot);
         }
     }
 }
@@ -332,50 +315,51 @@ fn bucket_by_band(
 struct Sample {
     t: f64,
     light: f64,
-    buckets: Vec<Vec<Particle>>,
+    buckets: Vec<Vec<Spot>>,
 }
 
 impl Band {
-    /// Render the particles at full light into `acc`/`touched` (used for the first sample).
-    fn render(
-        &mut self,
+    /// The band of rows `rows` at the first sample `t0` (particle images `bucket`), its
+    /// pixels adapted to it.
+    fn start(
+        sim: &Simulation,
+        rows: std::ops::Range<u32>,
         r: &mut ParticleRenderer,
-        bucket: &[Particle],
-        illumination: &IlluminationParams,
-        t: f64,
-        g: Geometry,
-    ) {
-        let light = illumination.sheet(t);
-        for p in bucket {
-            r.add(
-                p,
-                light,
-                self.rows.clone(),
-                &mut self.acc,
-                &mut self.mark,
-                &mut self.touched,
-            );
-        }
-        // Every pixel starts at its ambient irradiance.
+        bucket: &[Spot],
+        t0: f64,
+    ) -> Band {
+        let (g, illumination) = (sim.geometry, &sim.illumination);
         let w = g.width as usize;
-        for (k, v) in self.value.iter_mut().enumerate() {
-            let (x, y) = ((k % w) as u32, self.rows.start + (k / w) as u32);
-            *v = illumination.ambient(x, y, t);
+        let n = rows.len() * w;
+        // Every pixel starts at its ambient irradiance, plus the particle light.
+        let mut value: Vec<f32> = (0..n)
+            .map(|k| illumination.ambient((k % w) as u32, rows.start + (k / w) as u32, t0))
+            .collect();
+        // Zeroed memory: paged in where particles pass, not up front.
+        let (mut acc, mut mark) = (vec![0.0; n], vec![false; n]);
+        let mut lit = Vec::new();
+        for spot in bucket {
+            r.draw(spot, rows.clone(), &mut acc, &mut mark, &mut lit);
         }
-    }
-
-    /// Move the accumulated particle light into `value` and remember which pixels are lit.
-    fn commit_lit(&mut self, illumination: &IlluminationParams, t: f64, g: Geometry) {
-        let w = g.width as usize;
-        for &k in &self.touched {
+        for &k in &lit {
             let k = k as usize;
-            let (x, y) = ((k % w) as u32, self.rows.start + (k / w) as u32);
-            self.value[k] = illumination.ambient(x, y, t) + self.acc[k];
-            self.acc[k] = 0.0;
-            self.mark[k] = false;
+            value[k] += acc[k];
+            acc[k] = 0.0;
+            mark[k] = false;
         }
-        std::mem::swap(&mut self.lit, &mut self.touched);
-        self.touched.clear();
+        let sensor = SensorBand::new_adapted(g, rows.clone(), &sim.sensor, sim.seed, t0, |x, y| {
+            value[(y - rows.start) as usize * w + x as usize]
+        });
+        Band {
+            rows,
+            sensor,
+            value,
+            acc,
+            mark,
+            lit,
+            touched: Vec::new(),
+            events: Vec::new(),
+        }
     }
 
     /// Render a new sample and give the sensor the pixels whose irradiance changed.
@@ -383,17 +367,15 @@ impl Band {
     fn render_scaled(
         &mut self,
         r: &mut ParticleRenderer,
-        bucket: &[Particle],
-        light: f64,
+        bucket: &[Spot],
         t: f64,
         g: Geometry,
         illumination: &IlluminationParams,
         flicker: bool,
     ) {
-        for p in bucket {
-            r.add(
-                p,
-                light,
+        for spot in bucket {
+            r.draw(
+                spot,
                 self.rows.clone(),
                 &mut self.acc,
                 &mut self.mark,

@@ -12,8 +12,6 @@ pub(super) struct ActiveSet {
     words: Vec<u64>,
     /// Bit `w % 64` of word `w / 64`: `words[w]` is not zero.
     summary: Vec<u64>,
-    /// Members with a new input sample for the next pass (a subset of `words`).
-    changed: Vec<u64>,
     len: usize,
 }
 
@@ -23,7 +21,6 @@ impl ActiveSet {
         let words = n.div_ceil(64);
         ActiveSet {
             words: vec![0; words],
-            changed: vec![0; words],
             summary: vec![0; words.div_ceil(64)],
             len: 0,
         }
@@ -37,7 +34,6 @@ impl ActiveSet {
     /// Remove every member.
     pub fn clear(&mut self) {
         self.words.iter_mut().for_each(|w| *w = 0);
-        self.changed.iter_mut().for_each(|w| *w = 0);
         self.summary.iter_mut().for_each(|w| *w = 0);
         self.len = 0;
     }
@@ -54,17 +50,23 @@ impl ActiveSet {
         }
     }
 
-    /// Add pixel `i` (< n) and mark it changed.
+    /// Remove pixel `i` (< n) if it is a member.
     #[inline]
-    pub fn insert_changed(&mut self, i: usize) {
-        self.insert(i);
-        self.changed[i / 64] |= 1 << (i % 64);
+    pub fn remove(&mut self, i: usize) {
+        let (w, b) = (i / 64, i % 64);
+        let word = &mut self.words[w];
+        if *word & (1 << b) != 0 {
+            *word &= !(1 << b);
+            if *word == 0 {
+                self.summary[w / 64] &= !(1 << (w % 64));
+            }
+            self.len -= 1;
+        }
     }
 
-    /// Visit every member in increasing order; `keep(i, changed)` returns whether `i` stays.
-    /// Clears the changed marks.
+    /// Visit every member in increasing order; `keep(i)` returns whether `i` stays.
     #[inline]
-    pub fn retain(&mut self, mut keep: impl FnMut(usize, bool) -> bool) {
+    pub fn retain(&mut self, mut keep: impl FnMut(usize) -> bool) {
         let mut len = 0;
         for s in 0..self.summary.len() {
             let mut summary = self.summary[s];
@@ -73,17 +75,15 @@ impl ActiveSet {
                 let w = s * 64 + summary.trailing_zeros() as usize;
                 summary &= summary - 1;
                 let mut bits = self.words[w];
-                let changed = self.changed[w];
                 let mut kept = bits;
                 while bits != 0 {
                     let b = bits.trailing_zeros() as usize;
                     bits &= bits - 1;
-                    if !keep(w * 64 + b, changed >> b & 1 != 0) {
+                    if !keep(w * 64 + b) {
                         kept &= !(1 << b);
                     }
                 }
                 self.words[w] = kept;
-                self.changed[w] = 0;
                 len += kept.count_ones() as usize;
                 if kept == 0 {
                     summary_kept &= !(1 << (w % 64));
@@ -102,28 +102,27 @@ mod tests {
     #[test]
     fn members_are_visited_in_order_and_removed_on_request() {
         let mut set = ActiveSet::new(10_000);
-        for i in [9_999, 3, 64, 4_095, 4_096, 3, 70] {
+        for i in [9_999, 3, 64, 4_095, 4_096, 3, 70, 71, 5_000] {
             set.insert(i);
         }
-        set.insert_changed(70);
-        set.insert_changed(71);
+        set.remove(5_000);
+        set.remove(5_001);
         assert_eq!(set.len(), 7);
         let mut seen = Vec::new();
-        set.retain(|i, changed| {
-            seen.push((i, changed));
+        set.retain(|i| {
+            seen.push(i);
             i % 2 == 1
         });
-        let expected = [3, 64, 70, 71, 4_095, 4_096, 9_999].map(|i| (i, i == 70 || i == 71));
-        assert_eq!(seen, expected);
+        assert_eq!(seen, [3, 64, 70, 71, 4_095, 4_096, 9_999]);
         assert_eq!(set.len(), 4);
         let mut seen = Vec::new();
-        set.retain(|i, changed| {
-            seen.push((i, changed));
+        set.retain(|i| {
+            seen.push(i);
             true
         });
-        assert_eq!(seen, [3, 71, 4_095, 9_999].map(|i| (i, false)));
+        assert_eq!(seen, [3, 71, 4_095, 9_999]);
         set.clear();
-        set.retain(|_, _| panic!("empty"));
+        set.retain(|_| panic!("empty"));
         assert_eq!(set.len(), 0);
     }
 }

@@ -3,12 +3,14 @@
 use std::ops::Range;
 
 use super::active::ActiveSet;
-use super::detector::{Pending, Pixel, StepContext};
+use super::detector::{Pixel, Ramp, StepContext};
+use super::noise::RowNoiseBound;
 use super::params::SensorParams;
 use super::response::{clean_irradiance, Curve, Response, MIN_THRESHOLD};
 use super::{PixelCounters, SimEvent};
 use crate::error::{Error, Result};
 use crate::event::Geometry;
+use crate::sim::fastmath;
 use crate::sim::rng::{Rng, Stream};
 
 /// Largest sensor side: event coordinates are `u16`.
@@ -50,8 +52,11 @@ pub struct SensorBand {
     pub(super) geometry: Geometry,
     pub(super) rows: Range<u32>,
     pixels: Vec<Pixel>,
-    /// New samples of the pixels marked changed in `active`.
-    pending: Vec<Pending>,
+    /// New samples `(local pixel, irradiance)` for the step being prepared, one per pixel
+    /// (the pixel carries the `CHANGED` mark).
+    changed: Vec<(u32, f32)>,
+    /// Scratch: [`StepContext::prepare`] of each entry of `changed`.
+    ramps: Vec<Ramp>,
     /// Per active pixel, the time before which it need not be visited unless changed.
     wake: Vec<f64>,
     active: ActiveSet,
@@ -81,6 +86,19 @@ impl SensorBand {
     /// event coordinates) is clipped, and parameters are clamped to usable values. Use
     /// [`SensorBand::try_new`] to have them checked instead.
     pub fn new(geometry: Geometry, rows: Range<u32>, params: &SensorParams, seed: u64) -> Self {
+        Self::new_adapted(geometry, rows, params, seed, 0.0, |_, _| 0.0)
+    }
+
+    /// [`SensorBand::new`] followed by [`SensorBand::adapt`]`(t0_us, irradiance)`, in one pass
+    /// over the pixels.
+    pub fn new_adapted(
+        geometry: Geometry,
+        rows: Range<u32>,
+        params: &SensorParams,
+        seed: u64,
+        t0_us: f64,
+        irradiance: impl Fn(u32, u32) -> f32,
+    ) -> Self {
         let geometry = Geometry::new(geometry.width.min(MAX_SIDE), geometry.height.min(MAX_SIDE));
         let end = rows.end.min(geometry.height);
         let rows = rows.start.min(end)..end;
@@ -88,6 +106,7 @@ impl SensorBand {
         let width = geometry.width as usize;
         let n = width * rows.len();
         let first = rows.start as u64 * geometry.width as u64;
+        let t0 = if t0_us.is_finite() { t0_us } else { 0.0 };
 
         let cov = super::response::clean(params.noise_rate_cov_decades, 0.0, 2.0, 0.0);
         let sigma_ln = cov * std::f64::consts::LN_10;
@@ -97,46 +116,65 @@ impl SensorBand {
         let mut pixels = Vec::with_capacity(n);
         let mut noise_factor = Vec::with_capacity(if cov > 0.0 { n } else { 0 });
         let mut hot = Vec::new();
+        let mut row_noise_bound = Vec::with_capacity(rows.len());
+        let mut bound = RowNoiseBound::new(params, &response);
+        // Scenes are mostly one irradiance: reuse the last logarithm.
+        let (mut last_irr, mut last_u) = (0.0, response.log(0.0));
         for i in 0..n {
+            let (x, y) = ((i % width) as u32, rows.start + (i / width) as u32);
             // Fixed-pattern draws in a fixed order, whatever the parameters (v2e: frozen
-            // N(θ, σ) thresholds clamped ≥ 0.01, log-normal noise-rate factor).
+            // N(θ, σ) thresholds clamped ≥ 0.01, log-normal noise-rate factor); the factor
+            // comes last, so switching it off leaves thresholds and hot pixels as they are.
             let mut rng = Rng::new(seed, Stream::FixedPattern, first + i as u64);
-            let z_on = rng.normal();
-            let z_off = rng.normal();
-            let z_noise = rng.normal();
+            let (z_on, z_off) = (rng.normal_fast(), rng.normal_fast());
             let u_hot = rng.uniform();
             let theta_on = (response.theta_on + response.sigma * z_on).max(MIN_THRESHOLD);
             let theta_off = (response.theta_off + response.sigma * z_off).max(MIN_THRESHOLD);
-            pixels.push(Pixel::new(theta_on, theta_off));
+            let mut factor = 1.0;
             if cov > 0.0 {
-                noise_factor.push(((sigma_ln * z_noise).exp() * factor_norm) as f32);
+                factor = (fastmath::exp(sigma_ln * rng.normal_fast()) * factor_norm) as f32;
+                noise_factor.push(factor);
             }
             if u_hot < hot_fraction {
                 hot.push(i as u32);
             }
+            bound.add(factor as f64, theta_on, theta_off);
+            if x as usize + 1 == width {
+                row_noise_bound.push(bound.take());
+            }
+            let irr = clean_irradiance(irradiance(x, y));
+            if irr != last_irr {
+                (last_irr, last_u) = (irr, response.log(irr));
+            }
+            let mut px = Pixel::new(theta_on, theta_off);
+            px.adapt(irr, last_u, t0);
+            pixels.push(px);
         }
-        let mut band = SensorBand {
+        if width == 0 {
+            row_noise_bound.resize(rows.len(), 0.0);
+        }
+        SensorBand {
             geometry,
             rows,
             pixels,
-            pending: vec![Pending::default(); n],
-            wake: vec![f64::NEG_INFINITY; n],
+            changed: Vec::new(),
+            ramps: Vec::new(),
+            // Read only for members of the active set, which set it first; zeroed memory is
+            // not touched (or paged in) until then.
+            wake: vec![0.0; n],
             active: ActiveSet::new(n),
-            t_now: 0.0,
-            t_next: 0.0,
+            t_now: t0,
+            t_next: t0,
             response,
             seed,
             counters: PixelCounters::default(),
             noise_factor,
-            row_noise_bound: Vec::new(),
+            row_noise_bound,
             hot,
             params: params.clone(),
             noise_calls: 0,
             updates: 0,
-        };
-        band.row_noise_bound = band.compute_row_noise_bounds();
-        band.adapt(0.0, |_, _| 0.0);
-        band
+        }
     }
 
     /// [`SensorBand::new`] after checking the parameters, the geometry and the rows.
@@ -177,13 +215,21 @@ impl SensorBand {
     pub fn adapt(&mut self, t0_us: f64, irradiance: impl Fn(u32, u32) -> f32) {
         let t0 = if t0_us.is_finite() { t0_us } else { 0.0 };
         let width = self.geometry.width;
+        // Scenes are mostly one irradiance: reuse the last logarithm.
+        let (mut last_irr, mut last_u) = (0.0, self.response.log(0.0));
         for (i, px) in self.pixels.iter_mut().enumerate() {
             let x = (i % width as usize) as u32;
             let y = self.rows.start + (i / width as usize) as u32;
             let irr = clean_irradiance(irradiance(x, y));
-            let u = self.response.log(irr);
-            px.adapt(irr, u, t0);
+            if irr != last_irr {
+                (last_irr, last_u) = (irr, self.response.log(irr));
+            }
+            px.adapt(irr, last_u, t0);
         }
+        for &(local, _) in &self.changed {
+            self.pixels[local as usize].clear_changed();
+        }
+        self.changed.clear();
         self.active.clear();
         self.t_now = t0;
         self.t_next = t0;
@@ -236,12 +282,24 @@ impl SensorBand {
     /// change is allowed but costs a full pixel update.
     #[inline]
     pub fn set_input(&mut self, local: usize, irr: f32) {
-        let px = &self.pixels[local];
-        self.pending[local] = Pending::new(&self.response, px, irr, self.t_now, self.t_next);
-        self.active.insert_changed(local);
+        if self.pixels[local].mark_changed() {
+            self.changed.push((local as u32, irr));
+        } else if let Some(entry) = self
+            .changed
+            .iter_mut()
+            .rev()
+            .find(|e| e.0 as usize == local)
+        {
+            entry.1 = irr;
+        }
     }
 
     /// Run the step begun by [`SensorBand::begin_step`] (see [`SensorBand::advance`]).
+    ///
+    /// Members of the active set without a new sample are visited when due; then every pixel
+    /// with a new sample is updated, joining the active set if it may fire while its input
+    /// stays constant and leaving it otherwise. Each pixel's update depends on that pixel
+    /// alone, so the order of the two passes changes nothing but the order of `out`.
     pub fn advance_marked(&mut self, out: &mut Vec<SimEvent>) {
         let (ta, tb) = (self.t_now, self.t_next);
         let first = self.rows.start as u64 * self.geometry.width as u64;
@@ -254,22 +312,47 @@ impl SensorBand {
             counters: &mut self.counters,
             out,
         };
-        let (pixels, pending, wake) = (&mut self.pixels, &self.pending, &mut self.wake);
+        let (pixels, wake, active) = (&mut self.pixels, &mut self.wake, &mut self.active);
         let mut updates = 0;
-        self.active.retain(|local, changed| {
-            if !changed && wake[local] > tb {
-                return true;
-            }
-            updates += 1;
-            let new = changed.then(|| &pending[local]);
-            match ctx.step(&mut pixels[local], local as u32, ta, tb, new) {
-                Some(next) => {
-                    wake[local] = next;
-                    true
+        if active.len() > 0 {
+            active.retain(|local| {
+                let px = &mut pixels[local];
+                if px.changed() || wake[local] > tb {
+                    return true;
                 }
-                None => false,
+                updates += 1;
+                match ctx.step(px, local as u32, ta, tb, None) {
+                    Some(next) => {
+                        wake[local] = next;
+                        true
+                    }
+                    None => false,
+                }
+            });
+        }
+        let ramps = &mut self.ramps;
+        ramps.clear();
+        ramps.extend(self.changed.iter().map(|&(local, irr)| {
+            StepContext::prepare(ctx.response, &pixels[local as usize], irr, tb - ta)
+        }));
+        for (&(local, irr), ramp) in self.changed.iter().zip(ramps.iter()) {
+            let i = local as usize;
+            let px = &mut pixels[i];
+            px.clear_changed();
+            let next = match StepContext::quiet_ramp(ctx.response, px, ta, tb, irr, ramp) {
+                Some(next) => next,
+                None => ctx.step(px, local, ta, tb, Some(irr)),
+            };
+            match next {
+                Some(next) => {
+                    wake[i] = next;
+                    active.insert(i);
+                }
+                None => active.remove(i),
             }
-        });
+        }
+        updates += self.changed.len() as u64;
+        self.changed.clear();
         self.updates += updates;
         self.t_now = tb;
     }

@@ -10,6 +10,12 @@ use crate::sim::rng::{Rng, Stream};
 /// reference is reset.
 const BLIND: u32 = 1 << 31;
 
+/// Bit of [`Pixel::events`]: the pixel has a new input sample for the step being prepared.
+const CHANGED: u32 = 1 << 30;
+
+/// The bits of [`Pixel::events`] that count events.
+const COUNT: u32 = CHANGED - 1;
+
 /// State of one pixel: one cache line.
 #[derive(Debug, Clone, Copy)]
 #[repr(C, align(64))]
@@ -31,7 +37,8 @@ pub(super) struct Pixel {
     pub(super) theta_off: f64,
     /// Irradiance of the last sample.
     pub(super) irr: f32,
-    /// Events emitted so far (31 bits, indexing the jitter stream) and the `BLIND` bit.
+    /// Events emitted so far (30 bits, indexing the jitter stream) and the `BLIND` and
+    /// `CHANGED` bits.
     events: u32,
 }
 
@@ -59,7 +66,27 @@ impl Pixel {
         self.l_ref = u;
         self.t = t;
         self.release = f64::NEG_INFINITY;
-        self.events &= !BLIND;
+        self.events &= COUNT;
+    }
+
+    /// Mark the pixel as having a new sample; returns whether it was unmarked.
+    #[inline]
+    pub(super) fn mark_changed(&mut self) -> bool {
+        let fresh = self.events & CHANGED == 0;
+        self.events |= CHANGED;
+        fresh
+    }
+
+    /// Whether the pixel has a new sample for the step being prepared.
+    #[inline]
+    pub(super) fn changed(&self) -> bool {
+        self.events & CHANGED != 0
+    }
+
+    /// Clear the mark of [`Pixel::mark_changed`].
+    #[inline]
+    pub(super) fn clear_changed(&mut self) {
+        self.events &= !CHANGED;
     }
 
     #[inline]
@@ -79,54 +106,19 @@ impl Pixel {
     /// Count one event; returns the previous count.
     #[inline]
     fn count_event(&mut self) -> u32 {
-        let n = self.events & !BLIND;
-        self.events = (self.events & BLIND) | (n.wrapping_add(1) & !BLIND);
+        let n = self.events & COUNT;
+        self.events = (self.events & !COUNT) | (n.wrapping_add(1) & COUNT);
         n
     }
 }
 
-/// A pixel's new input sample and the transcendental parts of its next update, computed
-/// when the sample is given ([`Pending::new`]) rather than in the update itself: the update
-/// of one pixel is a chain of dependent operations, and computing the logarithm and the
-/// exponentials of many pixels in one pass lets the processor overlap them.
+/// The log response `u` of a new sample, the low-pass corner `omega` of the ramp to it
+/// (at the mean irradiance) and `decay = e^(−ω·Δt)` over the step ([`StepContext::prepare`]).
 #[derive(Debug, Clone, Copy, Default)]
-pub(super) struct Pending {
-    /// The new irradiance.
-    irr: f32,
-    /// Its log response.
+pub(super) struct Ramp {
     u: f64,
-    /// `e^(−ω·(tb − ta))` of the ramp from the old to the new sample over the step `[ta, tb]`
-    /// (ω at the mean irradiance), or NaN (compute it when needed).
-    ramp_decay: f64,
-    /// `e^(−ω·(ta − t))` of the constant-input stretch from the pixel's own time `t` to `ta`,
-    /// or NaN.
-    hold_decay: f64,
-}
-
-impl Pending {
-    /// The sample `irr` (cleaned) for `px`, to be applied over the step `[ta, tb]`.
-    #[inline]
-    pub(super) fn new(r: &Response, px: &Pixel, irr: f32, ta: f64, tb: f64) -> Self {
-        let irr = clean_irradiance(irr);
-        let u = if irr != px.irr { r.log(irr) } else { px.u };
-        let (mut ramp_decay, mut hold_decay) = (f64::NAN, f64::NAN);
-        if r.low_pass() {
-            // The same expressions as `segment` and `Curve::value` use, so the results are
-            // the ones they would compute.
-            let omega = r.omega(0.5 * (px.irr as f64 + irr as f64));
-            ramp_decay = fastmath::exp(-(omega * (tb - ta)));
-            if px.t < ta {
-                let omega = r.omega(0.5 * (px.irr as f64 + px.irr as f64));
-                hold_decay = fastmath::exp(-(omega * (ta - px.t)));
-            }
-        }
-        Pending {
-            irr,
-            u,
-            ramp_decay,
-            hold_decay,
-        }
-    }
+    omega: f64,
+    decay: f64,
 }
 
 /// Everything one step of one pixel needs besides the pixel.
@@ -150,8 +142,7 @@ const TIE: f64 = 1e-9;
 
 impl StepContext<'_> {
     /// Advance one active pixel from its own time to `tb`; its input is constant up to `ta`
-    /// and, with `new`, ramps to the new sample over `[ta, tb]` (`new` was made by
-    /// [`Pending::new`] for this pixel and step).
+    /// and, with `new`, ramps to the new irradiance sample `new` over `[ta, tb]`.
     ///
     /// Returns `None` when the pixel leaves the active set (it cannot fire while its input is
     /// constant), else the time before which it need not be visited again unless its input
@@ -163,18 +154,19 @@ impl StepContext<'_> {
         local: u32,
         ta: f64,
         tb: f64,
-        new: Option<&Pending>,
+        new: Option<f32>,
     ) -> Option<f64> {
         let r = self.response;
-        let new_irr = new.map(|p| p.irr);
-        if let Some(p) = new {
+        if let Some(irr) = new {
+            let irr = clean_irradiance(irr);
+            let u = if irr != px.irr { r.log(irr) } else { px.u };
             if px.t < ta {
                 // A pixel frozen or asleep since `px.t`: its constant-input stretch first.
-                self.segment(px, local, ta, None, p.hold_decay);
+                self.segment(px, local, ta, None);
             }
-            self.segment(px, local, tb, Some((p.irr, p.u)), p.ramp_decay);
+            self.segment(px, local, tb, Some((irr, u)));
         } else {
-            self.segment(px, local, tb, None, f64::NAN);
+            self.segment(px, local, tb, None);
         }
 
         if px.blind() {
@@ -193,7 +185,7 @@ impl StepContext<'_> {
         if omega <= 0.0 {
             return None;
         }
-        if new_irr.is_some() {
+        if new.is_some() {
             return Some(f64::NEG_INFINITY);
         }
         // Constant input: `L` relaxes monotonically towards `u`, which lies beyond a level;
@@ -209,18 +201,74 @@ impl StepContext<'_> {
         }
     }
 
+    /// The transcendental parts of the update of `px` by the new sample `irr` over a step of
+    /// `dt` µs (see [`Ramp`]). Each pixel's update is a chain of dependent operations;
+    /// computing these parts for all new samples of a step in one loop of independent
+    /// iterations lets the processor overlap them.
+    #[inline(always)]
+    pub(super) fn prepare(r: &Response, px: &Pixel, irr: f32, dt: f64) -> Ramp {
+        let irr = clean_irradiance(irr);
+        // `px.u` is `log(px.irr)`, so this is also right for an unchanged irradiance.
+        let u = r.log(irr);
+        let omega = r.omega(0.5 * (px.irr as f64 + irr as f64));
+        Ramp {
+            u,
+            omega,
+            decay: fastmath::exp(-(omega * dt)),
+        }
+    }
+
+    /// The common case of [`StepContext::step`] with a new sample, done without a call: a
+    /// pixel with the low-pass on, up to date at `ta`, not blind, whose `L` neither reaches a
+    /// level during the ramp over `[ta, tb]` nor can (input and output inside both levels,
+    /// or no extremum inside the step). Same arithmetic as `segment` (the exact low-pass
+    /// solution of [`Curve::low_pass`]), so the same result bit for bit. `ramp` is
+    /// [`StepContext::prepare`] of the sample `irr` for this pixel and step.
+    ///
+    /// Returns `None` if the pixel is not such a case (nothing changed; use `step`), else
+    /// what `step` returns. Most updates of a recording are of this kind: the pixels a
+    /// particle image brushes without changing them by a threshold.
+    #[inline(always)]
+    pub(super) fn quiet_ramp(
+        r: &Response,
+        px: &mut Pixel,
+        ta: f64,
+        tb: f64,
+        irr: f32,
+        ramp: &Ramp,
+    ) -> Option<Option<f64>> {
+        let omega = ramp.omega;
+        if px.t != ta || px.blind() || !r.low_pass() || !(omega > 0.0 && tb - ta > 1e-9) {
+            return None;
+        }
+        let ub = ramp.u;
+        let curve = Curve::low_pass(ta, tb, px.l, px.u, ub, omega);
+        let lb = curve.end_value_from(ramp.decay);
+        let hi = px.l_ref + px.theta_on - TIE;
+        let lo = px.l_ref - px.theta_off + TIE;
+        let inside = |v: f64| v < hi && v > lo;
+        let (ua_in, ub_in) = (inside(px.u), inside(ub));
+        if !(inside(lb) && (ua_in && ub_in || !curve.may_turn())) {
+            return None;
+        }
+        let irr_b = clean_irradiance(irr);
+        px.l = lb;
+        px.u = ub;
+        px.irr = irr_b;
+        px.t = tb;
+        // As at the end of `step`: settled, or may fire with its input held.
+        Some(if ub_in || r.omega(irr_b as f64) <= 0.0 {
+            None
+        } else {
+            Some(f64::NEG_INFINITY)
+        })
+    }
+
     /// Advance the pixel from `px.t` to `tb`, its input constant or, with `new = (irradiance,
     /// log response)`, ramping linearly in log to the new sample; emit the events of the
-    /// stretch. `decay` is `e^(−ω·(tb − px.t))` if known (see [`Pending`]), else NaN.
+    /// stretch.
     #[inline]
-    fn segment(
-        &mut self,
-        px: &mut Pixel,
-        local: u32,
-        tb: f64,
-        new: Option<(f32, f64)>,
-        decay: f64,
-    ) {
+    fn segment(&mut self, px: &mut Pixel, local: u32, tb: f64, new: Option<(f32, f64)>) {
         let r = self.response;
         let ta = px.t;
         let tb = tb.max(ta);
@@ -231,7 +279,7 @@ impl StepContext<'_> {
         } else {
             Curve::direct(ta, tb, px.u, ub)
         };
-        let lb = curve.end_value(decay);
+        let lb = curve.end_value();
 
         // Fast path: not blind, `L` inside both levels at the end and, if it may have an
         // extremum (which lies on the input line), the input inside them too.
@@ -329,7 +377,7 @@ impl StepContext<'_> {
         let k = px.count_event();
         if r.jitter > 0.0 {
             let index = ((k as u64) << 32) | self.first.wrapping_add(local) as u64;
-            let z = Rng::new(self.jitter_seed, Stream::Temporal, index).normal();
+            let z = Rng::new(self.jitter_seed, Stream::Temporal, index).normal_fast();
             trip += (r.jitter * z).max(-r.latency);
         }
         if trip < px.release {

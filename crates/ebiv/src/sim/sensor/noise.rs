@@ -7,7 +7,8 @@
 //! events that fall inside a pixel's blind time.
 
 use super::band::{sub_seed, SensorBand, TAG_HOT, TAG_NOISE};
-use super::response::clean;
+use super::params::SensorParams;
+use super::response::{clean, Response};
 use super::SimEvent;
 use crate::sim::rng::{Rng, Stream};
 
@@ -122,32 +123,47 @@ impl SensorBand {
             }
         }
     }
+}
 
-    /// Per row, an upper bound (events/µs) of any pixel's leak + shot-noise rate.
-    pub(super) fn compute_row_noise_bounds(&self) -> Vec<f64> {
-        let leak = clean(self.params.leak_rate_hz, 0.0, 1e6, 0.0) * PER_US;
-        let shot = clean(self.params.shot_noise_rate_hz, 0.0, 1e6, 0.0) * PER_US;
-        let width = self.geometry.width as usize;
-        let rows = self.rows.len();
-        let mut bounds = vec![0.0; rows];
-        if width == 0 || (leak <= 0.0 && shot <= 0.0) {
-            return bounds;
+/// Per row, an upper bound (events/µs) of any pixel's leak + shot-noise rate, for the
+/// thinning in [`SensorBand::noise`]: fed the fixed pattern of a row's pixels one by one.
+pub(super) struct RowNoiseBound {
+    leak: f64,
+    /// Half the shot-noise rate (per polarity) at the nominal thresholds.
+    half_shot: f64,
+    theta_on: f64,
+    theta_off: f64,
+    max_leak: f64,
+    max_shot: f64,
+}
+
+impl RowNoiseBound {
+    pub(super) fn new(params: &SensorParams, response: &Response) -> Self {
+        RowNoiseBound {
+            leak: clean(params.leak_rate_hz, 0.0, 1e6, 0.0) * PER_US,
+            half_shot: 0.5 * clean(params.shot_noise_rate_hz, 0.0, 1e6, 0.0) * PER_US,
+            theta_on: response.theta_on,
+            theta_off: response.theta_off,
+            max_leak: 0.0,
+            max_shot: 0.0,
         }
-        for (row_index, bound) in bounds.iter_mut().enumerate() {
-            let mut max_leak: f64 = 0.0;
-            let mut max_shot: f64 = 0.0;
-            for x in 0..width {
-                let i = row_index * width + x;
-                let factor = self.noise_factor.get(i).map_or(1.0, |&f| f as f64);
-                max_leak = max_leak.max(leak * factor);
-                let (theta_on, theta_off) = self.thresholds_of(i);
-                let s = 0.5
-                    * shot
-                    * (self.response.theta_on / theta_on + self.response.theta_off / theta_off);
-                max_shot = max_shot.max(s);
-            }
-            *bound = max_leak + max_shot;
+    }
+
+    /// A pixel of the row with noise-rate factor `factor` and thresholds `theta_on`,
+    /// `theta_off`.
+    #[inline]
+    pub(super) fn add(&mut self, factor: f64, theta_on: f64, theta_off: f64) {
+        if self.leak > 0.0 || self.half_shot > 0.0 {
+            self.max_leak = self.max_leak.max(self.leak * factor);
+            let s = self.half_shot * (self.theta_on / theta_on + self.theta_off / theta_off);
+            self.max_shot = self.max_shot.max(s);
         }
-        bounds
+    }
+
+    /// The bound of the pixels added since the last call.
+    pub(super) fn take(&mut self) -> f64 {
+        let bound = self.max_leak + self.max_shot;
+        (self.max_leak, self.max_shot) = (0.0, 0.0);
+        bound
     }
 }

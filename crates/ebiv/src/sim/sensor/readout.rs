@@ -7,6 +7,7 @@ use super::params::{SensorParams, TimestampMode};
 use super::response::clean;
 use super::{PixelCounters, SimEvent};
 use crate::event::EventBuffer;
+use rayon::iter::{IndexedParallelIterator, IntoParallelIterator, ParallelIterator};
 use rayon::slice::ParallelSliceMut;
 
 /// What the readout did, and (after [`ReadoutReport::absorb`]) what the pixels did.
@@ -69,9 +70,7 @@ pub fn read_out(mut events: Vec<SimEvent>, params: &SensorParams) -> (EventBuffe
     events.retain(|e| e.t_us.is_finite() && e.p <= 1);
     report.dropped_invalid = (before - events.len()) as u64;
 
-    // The key orders events totally (equal keys are identical events), so the parallel sort
-    // gives the same order on any number of threads.
-    events.par_sort_unstable_by_key(|e| (ordered_bits(e.t_us), e.y, e.x, e.p));
+    sort_events(&mut events);
 
     let refractory = clean(params.refractory_us, 0.0, 1e12, 0.0);
     if refractory > 0.0 && !events.is_empty() {
@@ -83,16 +82,71 @@ pub fn read_out(mut events: Vec<SimEvent>, params: &SensorParams) -> (EventBuffe
         report.dropped_bandwidth = token_bucket(&mut events, rate * 1e-6, burst);
     }
 
-    let mut buffer = EventBuffer::with_capacity(events.len());
-    for e in &events {
-        let t = match params.timestamp {
-            TimestampMode::Round => e.t_us.round(),
-            TimestampMode::Truncate => e.t_us.floor(),
-        };
-        buffer.push(t as i64, e.x, e.y, e.p);
-    }
+    let buffer = EventBuffer {
+        t: match params.timestamp {
+            TimestampMode::Round => events.iter().map(|e| e.t_us.round() as i64).collect(),
+            TimestampMode::Truncate => events.iter().map(|e| e.t_us.floor() as i64).collect(),
+        },
+        x: events.iter().map(|e| e.x).collect(),
+        y: events.iter().map(|e| e.y).collect(),
+        p: events.iter().map(|e| e.p).collect(),
+        triggers: Vec::new(),
+    };
     report.events_out = buffer.len() as u64;
     (buffer, report)
+}
+
+/// Events per bucket [`sort_events`] aims at.
+const EVENTS_PER_BUCKET: usize = 256;
+
+/// Sort finite-time events by time, then row, column, polarity.
+///
+/// The key orders events totally (equal keys are identical events), so the result is the
+/// same however the work is split. A bucket sort: events go to buckets of equal time span
+/// (a monotone function of time, so the buckets are in order), then each bucket is sorted
+/// on its own, in parallel — a few hundred events in cache instead of one sort of millions.
+fn sort_events(events: &mut Vec<SimEvent>) {
+    let key = |e: &SimEvent| (ordered_bits(e.t_us), e.y, e.x, e.p);
+    let n = events.len();
+    let (t_min, t_max) = events
+        .iter()
+        .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), e| {
+            (lo.min(e.t_us), hi.max(e.t_us))
+        });
+    let buckets = n / EVENTS_PER_BUCKET;
+    if buckets < 2 || t_max <= t_min {
+        events.par_sort_unstable_by_key(key);
+        return;
+    }
+    let per_us = buckets as f64 / (t_max - t_min);
+    let bucket_of = |e: &SimEvent| (((e.t_us - t_min) * per_us) as usize).min(buckets - 1);
+    let mut start = vec![0usize; buckets + 1];
+    for e in events.iter() {
+        start[bucket_of(e) + 1] += 1;
+    }
+    for b in 0..buckets {
+        start[b + 1] += start[b];
+    }
+    let mut next = start.clone();
+    let mut sorted = vec![events[0]; n];
+    for e in events.iter() {
+        let slot = &mut next[bucket_of(e)];
+        sorted[*slot] = *e;
+        *slot += 1;
+    }
+    // Cut the output at bucket boundaries into pieces for the threads.
+    let mut pieces = Vec::with_capacity(buckets);
+    let mut rest = sorted.as_mut_slice();
+    for b in 0..buckets {
+        let (piece, tail) = rest.split_at_mut(start[b + 1] - start[b]);
+        pieces.push(piece);
+        rest = tail;
+    }
+    pieces
+        .into_par_iter()
+        .with_min_len(64)
+        .for_each(|piece| piece.sort_unstable_by_key(key));
+    *events = sorted;
 }
 
 /// A key whose unsigned order is the numeric order of finite `t`.
@@ -109,8 +163,10 @@ fn ordered_bits(t: f64) -> u64 {
 /// Drop events within `refractory` µs of the previous kept event of the same pixel; returns
 /// how many were dropped. `events` is in time order.
 fn refractory_filter(events: &mut Vec<SimEvent>, refractory: f64) -> u64 {
-    let width = events.iter().map(|e| e.x as usize).max().unwrap_or(0) + 1;
-    let height = events.iter().map(|e| e.y as usize).max().unwrap_or(0) + 1;
+    let (x_max, y_max) = events
+        .iter()
+        .fold((0, 0), |(x, y), e| (x.max(e.x), y.max(e.y)));
+    let (width, height) = (x_max as usize + 1, y_max as usize + 1);
     let limit = refractory - REFRACTORY_TOLERANCE_US;
     let before = events.len();
     if width * height <= DENSE_TABLE_LIMIT {

@@ -78,7 +78,7 @@ impl Response {
     /// above the knee and its tangent line below it (continuous with a continuous slope, unlike
     /// v2e's `x·ln(T)/T` segment, which is kinked and decreasing for T < 1), or `ln(ε + i)`.
     /// The logarithm is [`fastmath::ln`], within about 1 ulp.
-    #[inline]
+    #[inline(always)]
     pub fn log(&self, i: f32) -> f64 {
         let i = i as f64;
         if self.knee > 0.0 {
@@ -200,7 +200,12 @@ impl Curve {
         if !(omega > 0.0 && dt > 0.0) {
             return Curve::constant(ta, tb.max(ta), la);
         }
-        let m = if dt > 1e-9 { (ub - ua) / dt } else { 0.0 };
+        // A product with the reciprocal: a step's many ramps share one division.
+        let m = if dt > 1e-9 {
+            (ub - ua) * (1.0 / dt)
+        } else {
+            0.0
+        };
         Curve {
             ta,
             tb,
@@ -231,15 +236,21 @@ impl Curve {
         }
     }
 
-    /// `L(tb)`, given `decay = e^(−ω·(tb − ta))` when known (else NaN): the same value as
-    /// `value(tb)`, bit for bit.
+    /// `L(tb)`.
     #[inline]
-    pub fn end_value(&self, decay: f64) -> f64 {
+    pub fn end_value(&self) -> f64 {
+        self.value(self.tb)
+    }
+
+    /// `L(tb)` given `decay = e^(−ω·(tb − ta))` of a low-pass curve: the same value as
+    /// [`Curve::end_value`], bit for bit.
+    #[inline]
+    pub fn end_value_from(&self, decay: f64) -> f64 {
         match self.kind {
-            Kind::Relax { gap, m, omega } if !decay.is_nan() => {
+            Kind::Relax { gap, m, omega } => {
                 self.relaxed(gap, m, omega, self.tb - self.ta, 1.0 - decay)
             }
-            _ => self.value(self.tb),
+            Kind::Linear { .. } => self.end_value(),
         }
     }
 
@@ -314,10 +325,17 @@ impl Curve {
         }
     }
 
-    /// Safeguarded Newton iteration from the linear interpolation of the bracket. A Newton
-    /// step `h` leaves an error of about `h²·|L''|/(2|L'|)`; once that is below the tolerance
-    /// the step is taken without a further evaluation.
+    /// Safeguarded Halley iteration (cubic convergence; `L`, `L′` and `L″` come from one
+    /// exponential) from the linear interpolation of the bracket, with bisection whenever a
+    /// step would leave the bracket. A Halley step `h` leaves an error of about `K·|h|³`,
+    /// `K = c² + ω|c|/3` with `c = L″/(2L′)` (here `L‴ = −ω·L″`); a Newton step (taken when
+    /// the Halley correction is large) about `|c|·h²`. Once that is below the tolerance the
+    /// step is taken without a further evaluation.
     fn newton(&self, level: f64, s0: f64, s1: f64, l0: f64, l1: f64) -> f64 {
+        let omega = match self.kind {
+            Kind::Relax { omega, .. } => omega,
+            Kind::Linear { .. } => 0.0,
+        };
         let increasing = l1 > l0;
         let (mut lo, mut hi) = (s0, s1);
         let mut s = s0 + (level - l0) / (l1 - l0) * (s1 - s0);
@@ -332,10 +350,14 @@ impl Curve {
             } else {
                 hi = s;
             }
-            let h = f / slope;
+            let newton = f / slope;
+            let c = curvature / (2.0 * slope);
+            let denominator = 1.0 - newton * c;
+            let halley = denominator > 0.5;
+            let h = if halley { newton / denominator } else { newton };
             let mut next = s - h;
-            let newton_ok = next > lo && next < hi;
-            if !newton_ok {
+            let in_bracket = next > lo && next < hi;
+            if !in_bracket {
                 next = 0.5 * (lo + hi);
             }
             let step = (next - s).abs();
@@ -343,8 +365,15 @@ impl Curve {
             if step <= ROOT_TOLERANCE_US || hi - lo <= ROOT_TOLERANCE_US {
                 break;
             }
-            if newton_ok && h * h * curvature.abs() < ROOT_TOLERANCE_US * slope.abs() {
-                break;
+            if in_bracket {
+                let predicted = if halley {
+                    (c * c + omega * c.abs() / 3.0) * step * step * step
+                } else {
+                    c.abs() * step * step
+                };
+                if predicted < ROOT_TOLERANCE_US {
+                    break;
+                }
             }
         }
         s
