@@ -17,6 +17,10 @@
 //!    around the current best, re-centred while the best lies on their border, halving the
 //!    step while it stays ≥ `final_step`.
 //! 4. A 3-point fit per axis (or a 2-D Gaussian) through the best lattice point.
+//!
+//! [`SearchMethod::Newton`] replaces all four steps, when the objective allows, by a
+//! pair-velocity vote ([`super::votes`]) and a Newton ascent ([`super::newton`]); an
+//! ambiguous vote hands the window to the steps above.
 
 use super::iwe::{evaluate, Canvas, Events, SplatTable, Workspace};
 use super::newton::ascend;
@@ -29,6 +33,8 @@ use crate::field::Status;
 const TOP_HALF: i64 = 2;
 /// Re-centrings allowed per level before moving on.
 const MAX_CLIMB: usize = 6;
+/// Vote peak ratios below this (or none) hand the window to the grid search.
+const AMBIGUOUS: f64 = 1.5;
 
 /// Outcome of a search.
 #[derive(Debug, Clone, Copy)]
@@ -94,7 +100,9 @@ impl Search<'_> {
             return None;
         }
         if self.newton_applies() {
-            return self.newton(limit as f64 * unit, t_max, s);
+            if let Some(out) = self.newton(limit as f64 * unit, t_max, s) {
+                return Some(out);
+            }
         }
         // Level `l` of the pyramid: lattice step 2^(refinements + l) units.
         let level_step = |l: u32| 1i64 << (refinements + l);
@@ -216,7 +224,8 @@ impl Search<'_> {
 
     /// Pair-velocity vote over `centre ± extent`, wider than the search box `centre ± half`,
     /// then a Newton ascent from the vote's start with the highest objective. A maximum
-    /// outside the box is out of range. `None` if the canvas would be unreasonably large.
+    /// outside the box is out of range. `None` if the vote is ambiguous or the canvas would
+    /// be unreasonably large: the grid search decides.
     fn newton(&self, half: f64, t_max: f64, s: &mut SearchScratch) -> Option<Outcome> {
         let p = self.params;
         let extent = half + half.max(2.0);
@@ -238,6 +247,11 @@ impl Search<'_> {
         let Some(vote) = vote(self.events, self.centre, extent, cell, &mut s.votes) else {
             return Some(invalid(Status::NO_PEAK, f64::NAN));
         };
+        if vote.ratio.is_nan() || vote.ratio < AMBIGUOUS {
+            // Several comparable velocity clusters (shear, few particles): the grid search
+            // of the whole range is more reliable than an ascent from one of them.
+            return None;
+        }
         // Several starts: the one with the highest objective (one plain evaluation each).
         let mut from = s.votes.starts[0];
         if s.votes.starts.len() > 1 {
@@ -265,8 +279,11 @@ impl Search<'_> {
             self.fine,
             &mut s.work,
         );
-        let outside = (top.velocity[0] - self.centre[0]).abs() >= half
-            || (top.velocity[1] - self.centre[1]).abs() >= half;
+        // Within half a refinement step of the border counts as on it, as for the grid's
+        // last lattice point.
+        let edge = half - 0.5 * p.final_step;
+        let outside = (top.velocity[0] - self.centre[0]).abs() >= edge
+            || (top.velocity[1] - self.centre[1]).abs() >= edge;
         if outside {
             return Some(invalid(Status::OUT_OF_RANGE, vote.ratio));
         }
