@@ -14,9 +14,23 @@
 //! integer pixel positions (item 8); candidate grids from integer counts; a coarse-to-fine
 //! search around a predictor instead of a fixed 725-candidate scan; NaN with a status for
 //! empty windows, flat objectives and edge-of-range peaks instead of zero or clamped vectors.
+//!
+//! Two searches ([`SearchMethod`]). The paper's prescription ([`SearchMethod::Grid`]): a
+//! coarse grid, 5 × 5 refinements down to 0.05 px/ms and a 3-point fit, 100–200 IWE
+//! evaluations per window. The default ([`SearchMethod::Newton`]) uses the fact that with a
+//! Gaussian splat Σ I² is a smooth function of the velocity with analytic derivatives (Gallego et
+//! al. 2018): a histogram of event-pair velocities gives a start over twice the range in one
+//! pass over the pairs, and Newton steps with the analytic gradient and Hessian converge to
+//! the continuous maximum in about three evaluations (no lattice, no fit bias). Windows
+//! whose vote is ambiguous (peak ratio < 1.5: shear, few particles) fall back to the grid.
+//! On the simulated tests it is as accurate or better (uniform flow RMS 0.013 → 0.010
+//! px/ms, turntable DVR 119 both, Lamb–Oseen multi-pass RMS 0.196 → 0.163) except for one
+//! more outlier in the single-pass Lamb–Oseen field (RMS 0.349 → 0.369).
 
 mod iwe;
+mod newton;
 mod search;
+mod votes;
 
 use serde::{Deserialize, Serialize};
 
@@ -77,6 +91,23 @@ impl Default for Splat {
     }
 }
 
+/// How the velocity that maximises the objective is found.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum SearchMethod {
+    /// Start at the peak of a histogram of event-pair velocities, then Newton steps with the
+    /// objective's analytic gradient and Hessian until the step is below 0.005 px/ms: about
+    /// four objective evaluations per window. Needs a smooth objective: with a bilinear
+    /// splat or an objective other than the variance or Σ I², and for windows whose vote is
+    /// ambiguous, [`SearchMethod::Grid`] is used instead.
+    #[default]
+    Newton,
+    /// The paper's prescription: a coarse grid (through a pyramid of coarser canvases for
+    /// wide ranges), 5 × 5 neighbourhoods at `coarse_step`, halving the step down to
+    /// `final_step`, then a 3-point fit: 100–200 evaluations per window.
+    Grid,
+}
+
 /// The time the events are warped to.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
 #[serde(rename_all = "kebab-case")]
@@ -113,8 +144,10 @@ pub struct MotionParams {
     pub t_ref: ReferenceTime,
     /// Windows with fewer events are flagged [`Status::FEW_EVENTS`].
     pub min_events: u32,
-    /// Sub-grid fit of the objective around its best candidate.
+    /// Sub-grid fit of the objective around its best candidate ([`SearchMethod::Grid`]).
     pub fit: SubPixelFit,
+    /// Search strategy.
+    pub search: SearchMethod,
 }
 
 impl Default for MotionParams {
@@ -129,6 +162,7 @@ impl Default for MotionParams {
             t_ref: ReferenceTime::SlabCentre,
             min_events: 10,
             fit: SubPixelFit::Gaussian3,
+            search: SearchMethod::Newton,
         }
     }
 }
@@ -362,6 +396,7 @@ impl Estimator for ContrastMaximization {
             ("t_ref".into(), format!("{:?}", p.t_ref)),
             ("min_events".into(), p.min_events.to_string()),
             ("fit".into(), format!("{:?}", p.fit)),
+            ("search".into(), format!("{:?}", p.search)),
         ]
     }
 }

@@ -29,34 +29,58 @@ pub(crate) struct SplatTable {
     pub shift: f32,
     /// `(LEVELS + 1) × taps` weights.
     pub weights: Vec<f32>,
+    /// First and second derivatives of the weights with respect to the point's position
+    /// (per cell and per cell²), same layout; zero for the bilinear tent, whose weights are
+    /// piecewise linear.
+    pub slope: Vec<f32>,
+    pub curvature: Vec<f32>,
 }
 
 impl SplatTable {
     /// The table of `splat`.
     pub fn new(splat: Splat) -> Self {
-        let (taps, shift, kernel): (usize, f32, Box<dyn Fn(f64) -> f64>) = match splat {
-            // The tent: bilinear weights of a point, (1 − f, f), correctly assigned
-            // (not mirrored, algorithms.md §4.5 item 1).
-            Splat::Bilinear => (2, 0.0, Box::new(|d: f64| (1.0 - d.abs()).max(0.0))),
+        let (taps, shift, k) = match splat {
+            Splat::Bilinear => (2, 0.0, None),
             Splat::Gaussian { sigma } => {
                 let half = (2.5 * sigma).ceil().max(1.0) as usize;
                 let taps = (2 * half + 1).min(MAX_TAPS);
-                let k = 1.0 / (2.0 * sigma * sigma);
-                (taps, 0.5, Box::new(move |d: f64| (-d * d * k).exp()))
+                (taps, 0.5f32, Some(1.0 / (2.0 * sigma * sigma)))
             }
         };
         let first = -((taps as i64 - 1) / 2);
-        let mut weights = vec![0f32; (LEVELS + 1) * taps];
+        let size = (LEVELS + 1) * taps;
+        let (mut weights, mut slope, mut curvature) =
+            (vec![0f32; size], vec![0f32; size], vec![0f32; size]);
         for q in 0..=LEVELS {
             // Position of the point relative to the base pixel.
             let f = q as f64 / LEVELS as f64 - shift as f64;
-            let row = &mut weights[q * taps..(q + 1) * taps];
-            let w: Vec<f64> = (0..taps)
-                .map(|j| kernel((first + j as i64) as f64 - f))
-                .collect();
-            let sum: f64 = w.iter().sum();
-            for (r, w) in row.iter_mut().zip(&w) {
-                *r = (w / sum) as f32;
+            // Kernel g_j at tap j, distance d = j − f, and its derivatives in f.
+            let (mut g, mut g1, mut g2) = ([0f64; MAX_TAPS], [0f64; MAX_TAPS], [0f64; MAX_TAPS]);
+            for j in 0..taps {
+                let d = (first + j as i64) as f64 - f;
+                match k {
+                    // The tent: bilinear weights of a point, (1 − f, f), correctly assigned
+                    // (not mirrored, algorithms.md §4.5 item 1).
+                    None => g[j] = (1.0 - d.abs()).max(0.0),
+                    Some(k) => {
+                        g[j] = (-d * d * k).exp();
+                        g1[j] = 2.0 * k * d * g[j];
+                        g2[j] = (4.0 * k * k * d * d - 2.0 * k) * g[j];
+                    }
+                }
+            }
+            // Normalised weights w = g / S and their derivatives (quotient rule).
+            let (s0, s1, s2): (f64, f64, f64) = (
+                g[..taps].iter().sum(),
+                g1[..taps].iter().sum(),
+                g2[..taps].iter().sum(),
+            );
+            for j in 0..taps {
+                let at = q * taps + j;
+                weights[at] = (g[j] / s0) as f32;
+                slope[at] = (g1[j] / s0 - g[j] * s1 / (s0 * s0)) as f32;
+                curvature[at] = (g2[j] / s0 - 2.0 * g1[j] * s1 / (s0 * s0) - g[j] * s2 / (s0 * s0)
+                    + 2.0 * g[j] * s1 * s1 / (s0 * s0 * s0)) as f32;
             }
         }
         SplatTable {
@@ -64,6 +88,8 @@ impl SplatTable {
             first,
             shift,
             weights,
+            slope,
+            curvature,
         }
     }
 
@@ -130,6 +156,13 @@ pub(crate) struct Events {
 pub(crate) struct Workspace {
     pub canvas: Vec<f32>,
     pub footprint: Vec<u32>,
+    /// Objective evaluations so far (plain or with derivatives), for profiling.
+    pub evaluations: u64,
+    /// Canvases of ∂I/∂u and ∂I/∂v (derivative evaluations only; zero between them).
+    ju: Vec<f32>,
+    jv: Vec<f32>,
+    /// Quantised sub-pixel positions `qx | qy << 16` of the last derivative scatter.
+    quant: Vec<u32>,
     prepared: Option<(Canvas, f32)>,
     cx: Vec<f32>,
     cy: Vec<f32>,
@@ -179,6 +212,7 @@ pub(crate) fn evaluate(
         work.canvas.resize(canvas.cells(), 0.0);
     }
     work.prepare(events, canvas, table);
+    work.evaluations += 1;
     match table.taps {
         2 => objective_of::<2>(events, velocity, canvas, table, objective, work),
         3 => objective_of::<3>(events, velocity, canvas, table, objective, work),
@@ -258,20 +292,207 @@ fn scatter<const K: usize>(
         *slot = origin as u32;
         let wx: &[f32; K] = table.weights[qx * K..qx * K + K].try_into().unwrap();
         let wy: &[f32; K] = table.weights[qy * K..qy * K + K].try_into().unwrap();
-        let mut gain = 0f32;
+        // One partial sum per column: no serial chain of additions.
+        let mut gain = [0f32; K];
         for (a, &wa) in wy.iter().enumerate() {
             let row: &mut [f32; K] = (&mut grid[origin + a * stride..origin + a * stride + K])
                 .try_into()
                 .unwrap();
-            for (cell, &wb) in row.iter_mut().zip(wx) {
-                let w = wa * wb;
-                gain += w * (2.0 * *cell + w);
-                *cell += w;
+            for b in 0..K {
+                let w = wa * wx[b];
+                gain[b] += w * (2.0 * row[b] + w);
+                row[b] += w;
             }
         }
-        squares += gain as f64;
+        squares += gain.iter().sum::<f32>() as f64;
     }
     squares
+}
+
+/// Σ I² of the IWE and its gradient and Hessian in the velocity `(u, v)`.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub(crate) struct Derivatives {
+    pub squares: f64,
+    pub gradient: [f64; 2],
+    pub hessian: [[f64; 2]; 2],
+}
+
+/// Σ I² at `velocity` with its analytic gradient and Hessian (contrast maximisation with
+/// derivatives: Gallego, Rebecq & Scaramuzza, CVPR 2018, §3). With the warped position
+/// `x'_i = x_i − u t_i` and the splat weights `w(x')` of the table,
+///
+/// * `∂I(p)/∂u = −Σ_i t_i w'_x w_y` (canvas `J_u`, likewise `J_v`),
+/// * `∂ΣI²/∂u = 2 Σ_p I ∂I/∂u`, read back per event from the finished image,
+/// * `∂²ΣI²/∂u∂v = 2 Σ_p J_u J_v + 2 Σ_p I ∂²I/∂u∂v` with `∂²I/∂u∂v = Σ_i t_i² w'_x w'_y`.
+///
+/// Three passes: scatter I, J_u, J_v over the events; read I back under each event's
+/// footprint; sum and zero the rows and columns the footprints reach. Only for kernels with derivatives (Gaussian tables).
+pub(crate) fn derivatives(
+    events: &Events,
+    velocity: [f64; 2],
+    canvas: &Canvas,
+    table: &SplatTable,
+    work: &mut Workspace,
+) -> Derivatives {
+    let cells = canvas.cells();
+    for c in [&mut work.canvas, &mut work.ju, &mut work.jv] {
+        if c.len() < cells {
+            c.resize(cells, 0.0);
+        }
+    }
+    work.prepare(events, canvas, table);
+    work.evaluations += 1;
+    match table.taps {
+        3 => derivatives_of::<3>(velocity, canvas, table, work),
+        5 => derivatives_of::<5>(velocity, canvas, table, work),
+        7 => derivatives_of::<7>(velocity, canvas, table, work),
+        _ => derivatives_of::<MAX_TAPS>(velocity, canvas, table, work),
+    }
+}
+
+fn derivatives_of<const K: usize>(
+    [u, v]: [f64; 2],
+    canvas: &Canvas,
+    table: &SplatTable,
+    work: &mut Workspace,
+) -> Derivatives {
+    let (u, v) = (u as f32, v as f32);
+    let stride = canvas.width;
+    let first = table.first as isize;
+    let levels = LEVELS as f32;
+    let cells = canvas.cells();
+    let row = |tab: &[f32], q: usize| -> [f32; K] { tab[q * K..q * K + K].try_into().unwrap() };
+    let n = work.ct.len();
+    work.footprint.resize(n, 0);
+    work.quant.resize(n, 0);
+    // 1. Scatter I, J_u, J_v; `span` bounds the base pixels (x min, x max, y min, y max).
+    let mut span = [u32::MAX, 0, u32::MAX, 0];
+    {
+        let (grid, ju, jv) = (
+            &mut work.canvas[..cells],
+            &mut work.ju[..cells],
+            &mut work.jv[..cells],
+        );
+        let events = work.cx.iter().zip(&work.cy).zip(&work.ct);
+        let slots = work.footprint.iter_mut().zip(work.quant.iter_mut());
+        for (((&x, &y), &t), (slot, quant)) in events.zip(slots) {
+            let (xc, yc) = (x - u * t, y - v * t);
+            let (bx, by) = (xc as u32, yc as u32);
+            span = [
+                span[0].min(bx),
+                span[1].max(bx),
+                span[2].min(by),
+                span[3].max(by),
+            ];
+            let (bx, by) = (bx as usize, by as usize);
+            let qx = ((xc - bx as f32) * levels + 0.5) as u32 as usize;
+            let qy = ((yc - by as f32) * levels + 0.5) as u32 as usize;
+            let origin = (by as isize + first) as usize * stride + (bx as isize + first) as usize;
+            *slot = origin as u32;
+            *quant = (qx | qy << 16) as u32;
+            let (wx, wy) = (row(&table.weights, qx), row(&table.weights, qy));
+            let (sx, sy) = (row(&table.slope, qx), row(&table.slope, qy));
+            for a in 0..K {
+                let at = origin + a * stride;
+                let (wa, sa) = (wy[a], -t * sy[a]);
+                let ta = -t * wy[a];
+                let g: &mut [f32; K] = (&mut grid[at..at + K]).try_into().unwrap();
+                let gu: &mut [f32; K] = (&mut ju[at..at + K]).try_into().unwrap();
+                let gv: &mut [f32; K] = (&mut jv[at..at + K]).try_into().unwrap();
+                for b in 0..K {
+                    g[b] += wa * wx[b];
+                    gu[b] += ta * sx[b];
+                    gv[b] += sa * wx[b];
+                }
+            }
+        }
+    }
+    // 2. Read I back under each footprint: gradient and the I ∂²I term of the Hessian.
+    let (mut g, mut h) = ([0f64; 2], [0f64; 3]);
+    {
+        let grid = &work.canvas[..cells];
+        let events = work.ct.iter().zip(&work.footprint).zip(&work.quant);
+        for ((&t, &origin), &quant) in events {
+            let (qx, qy) = ((quant & 0xffff) as usize, (quant >> 16) as usize);
+            let (wx, sx, cx) = (
+                row(&table.weights, qx),
+                row(&table.slope, qx),
+                row(&table.curvature, qx),
+            );
+            let (wy, sy, cy) = (
+                row(&table.weights, qy),
+                row(&table.slope, qy),
+                row(&table.curvature, qy),
+            );
+            // Column sums of I weighted by the row kernels w_y, w'_y, w''_y, then dot
+            // products with the column kernels (independent lanes, no serial chain).
+            let (mut r0, mut r1, mut r2) = ([0f32; K], [0f32; K], [0f32; K]);
+            for a in 0..K {
+                let at = origin as usize + a * stride;
+                let cells: &[f32; K] = (&grid[at..at + K]).try_into().unwrap();
+                for b in 0..K {
+                    r0[b] += wy[a] * cells[b];
+                    r1[b] += sy[a] * cells[b];
+                    r2[b] += cy[a] * cells[b];
+                }
+            }
+            let dot = |r: &[f32; K], w: &[f32; K]| -> f32 {
+                let mut acc = [0f32; K];
+                for b in 0..K {
+                    acc[b] = r[b] * w[b];
+                }
+                acc.iter().sum()
+            };
+            let (gu, gv) = (dot(&r0, &sx), dot(&r1, &wx));
+            let (huu, huv, hvv) = (dot(&r0, &cx), dot(&r1, &sx), dot(&r2, &wx));
+            let (t, t2) = (t as f64, (t * t) as f64);
+            g[0] -= t * gu as f64;
+            g[1] -= t * gv as f64;
+            h[0] += t2 * huu as f64;
+            h[1] += t2 * huv as f64;
+            h[2] += t2 * hvv as f64;
+        }
+    }
+    // 3. Σ I², Σ J J^T over the rows and columns the footprints can reach (contiguous, so
+    // vectorised), zeroing them.
+    let (mut squares, mut j) = (0f64, [0f64; 3]);
+    if n > 0 {
+        let x0 = (span[0] as isize + first) as usize;
+        let x1 = (span[1] as isize + first) as usize + K;
+        let y0 = (span[2] as isize + first) as usize;
+        let y1 = (span[3] as isize + first) as usize + K;
+        for r in y0..y1 {
+            let range = r * stride + x0..r * stride + x1;
+            let (g, gu, gv) = (
+                &mut work.canvas[range.clone()],
+                &mut work.ju[range.clone()],
+                &mut work.jv[range],
+            );
+            let (mut s, mut uu, mut uv, mut vv) = ([0f32; 4], [0f32; 4], [0f32; 4], [0f32; 4]);
+            for (k, ((&a, &b), &c)) in g.iter().zip(gu.iter()).zip(gv.iter()).enumerate() {
+                let l = k % 4;
+                s[l] += a * a;
+                uu[l] += b * b;
+                uv[l] += b * c;
+                vv[l] += c * c;
+            }
+            g.fill(0.0);
+            gu.fill(0.0);
+            gv.fill(0.0);
+            squares += s.iter().sum::<f32>() as f64;
+            j[0] += uu.iter().sum::<f32>() as f64;
+            j[1] += uv.iter().sum::<f32>() as f64;
+            j[2] += vv.iter().sum::<f32>() as f64;
+        }
+    }
+    Derivatives {
+        squares,
+        gradient: [2.0 * g[0], 2.0 * g[1]],
+        hessian: [
+            [2.0 * (j[0] + h[0]), 2.0 * (j[1] + h[1])],
+            [2.0 * (j[1] + h[1]), 2.0 * (j[2] + h[2])],
+        ],
+    }
 }
 
 /// Zero the touched cells.

@@ -17,9 +17,15 @@
 //!    around the current best, re-centred while the best lies on their border, halving the
 //!    step while it stays ≥ `final_step`.
 //! 4. A 3-point fit per axis (or a 2-D Gaussian) through the best lattice point.
+//!
+//! [`SearchMethod::Newton`] replaces all four steps, when the objective allows, by a
+//! pair-velocity vote ([`super::votes`]) and a Newton ascent ([`super::newton`]); an
+//! ambiguous vote hands the window to the steps above.
 
 use super::iwe::{evaluate, Canvas, Events, SplatTable, Workspace};
-use super::MotionParams;
+use super::newton::ascend;
+use super::votes::{vote, VoteScratch};
+use super::{MotionParams, Objective, SearchMethod, Splat};
 use crate::estimate::peak::{self, SubPixelFit};
 use crate::field::Status;
 
@@ -27,6 +33,8 @@ use crate::field::Status;
 const TOP_HALF: i64 = 2;
 /// Re-centrings allowed per level before moving on.
 const MAX_CLIMB: usize = 6;
+/// Vote peak ratios below this (or none) hand the window to the grid search.
+const AMBIGUOUS: f64 = 1.5;
 
 /// Outcome of a search.
 #[derive(Debug, Clone, Copy)]
@@ -44,6 +52,7 @@ pub(crate) struct SearchScratch {
     /// Evaluated lattice points of the current level: `(kx, ky, value)`.
     cache: Vec<(i64, i64, f64)>,
     map: Vec<f64>,
+    votes: VoteScratch,
 }
 
 /// The search of one window.
@@ -89,6 +98,11 @@ impl Search<'_> {
         let fine_canvas = Canvas::covering(self.extent, shift, 1.0, self.fine);
         if fine_canvas.width.max(fine_canvas.height) > 16_384 {
             return None;
+        }
+        if self.newton_applies() {
+            if let Some(out) = self.newton(limit as f64 * unit, t_max, s) {
+                return Some(out);
+            }
         }
         // Level `l` of the pyramid: lattice step 2^(refinements + l) units.
         let level_step = |l: u32| 1i64 << (refinements + l);
@@ -199,6 +213,95 @@ impl Search<'_> {
         })
     }
 
+    /// Whether [`SearchMethod::Newton`] is configured and the objective has the derivatives
+    /// it needs (Σ I² or the variance of a Gaussian-splatted IWE).
+    fn newton_applies(&self) -> bool {
+        let p = self.params;
+        p.search == SearchMethod::Newton
+            && matches!(p.splat, Splat::Gaussian { .. })
+            && matches!(p.objective, Objective::Variance | Objective::SumOfSquares)
+    }
+
+    /// Pair-velocity vote over `centre ± extent`, wider than the search box `centre ± half`,
+    /// then a Newton ascent from the vote's start with the highest objective. A maximum
+    /// outside the box is out of range. `None` if the vote is ambiguous or the canvas would
+    /// be unreasonably large: the grid search decides.
+    fn newton(&self, half: f64, t_max: f64, s: &mut SearchScratch) -> Option<Outcome> {
+        let p = self.params;
+        let extent = half + half.max(2.0);
+        let shift = [
+            (self.centre[0].abs() + extent) * t_max,
+            (self.centre[1].abs() + extent) * t_max,
+        ];
+        let canvas = Canvas::covering(self.extent, shift, 1.0, self.fine);
+        if canvas.width.max(canvas.height) > 16_384 {
+            return None;
+        }
+        let invalid = |status, ratio| Outcome {
+            velocity: [f64::NAN; 2],
+            status,
+            peak: f64::NAN,
+            peak_ratio: ratio,
+        };
+        let cell = p.coarse_step.max(extent / 16.0);
+        let Some(vote) = vote(self.events, self.centre, extent, cell, &mut s.votes) else {
+            return Some(invalid(Status::NO_PEAK, f64::NAN));
+        };
+        if vote.ratio.is_nan() || vote.ratio < AMBIGUOUS {
+            // Several comparable velocity clusters (shear, few particles): the grid search
+            // of the whole range is more reliable than an ascent from one of them.
+            return None;
+        }
+        // Several starts: the one with the highest objective (one plain evaluation each).
+        let mut from = s.votes.starts[0];
+        if s.votes.starts.len() > 1 {
+            let mut best = f64::NEG_INFINITY;
+            for &start in &s.votes.starts {
+                let value = evaluate(
+                    self.events,
+                    start,
+                    &canvas,
+                    self.fine,
+                    Objective::SumOfSquares,
+                    &mut s.work,
+                );
+                if value > best {
+                    (best, from) = (value, start);
+                }
+            }
+        }
+        let top = ascend(
+            self.events,
+            from,
+            self.centre,
+            extent,
+            &canvas,
+            self.fine,
+            &mut s.work,
+        );
+        // Within half a refinement step of the border counts as on it, as for the grid's
+        // last lattice point.
+        let edge = half - 0.5 * p.final_step;
+        let outside = (top.velocity[0] - self.centre[0]).abs() >= edge
+            || (top.velocity[1] - self.centre[1]).abs() >= edge;
+        if outside {
+            return Some(invalid(Status::OUT_OF_RANGE, vote.ratio));
+        }
+        let peak = match p.objective {
+            Objective::Variance => {
+                let (cells, n) = (canvas.cells() as f64, self.events.t.len() as f64);
+                top.squares / cells - (n / cells) * (n / cells)
+            }
+            _ => top.squares,
+        };
+        Some(Outcome {
+            velocity: top.velocity,
+            status: Status::VALID,
+            peak,
+            peak_ratio: vote.ratio,
+        })
+    }
+
     /// Objective at lattice point `k`.
     fn value(
         &self,
@@ -276,5 +379,111 @@ impl Search<'_> {
             }
         }
         centre
+    }
+}
+
+#[cfg(test)]
+mod timing {
+    use super::*;
+    use crate::estimate::motion::MotionParams;
+
+    /// Events of `count` particles (trails of ring-shaped images, integer pixels) moving
+    /// with `vel` px/ms over ±5 ms, inside a 40 × 40 px window.
+    fn trails(vel: [f64; 2], seed: u64) -> Events {
+        let mut state = seed.wrapping_mul(0x9E37_79B9_7F4A_7C15) | 1;
+        let mut next = || {
+            state ^= state << 13;
+            state ^= state >> 7;
+            state ^= state << 17;
+            (state >> 11) as f64 / (1u64 << 53) as f64
+        };
+        let mut ev = Events::default();
+        while ev.t.len() < 300 {
+            let (px, py) = (next() * 60.0 - 10.0, next() * 60.0 - 10.0);
+            for k in 0..40 {
+                let t = -5.0 + 10.0 * next();
+                let a = next() * std::f64::consts::TAU;
+                let x = (px + vel[0] * t + 1.2 * a.cos()).round();
+                let y = (py + vel[1] * t + 1.2 * a.sin()).round();
+                if (0.0..40.0).contains(&x) && (0.0..40.0).contains(&y) && k % 2 == 0 {
+                    ev.x.push(x as f32);
+                    ev.y.push(y as f32);
+                    ev.t.push(t as f32);
+                }
+            }
+        }
+        ev
+    }
+
+    #[test]
+    #[ignore = "timing printout, not a pass/fail test (timed assertions are not allowed): run with --release -- --ignored --nocapture"]
+    fn time_search_methods() {
+        let cases: Vec<([f64; 2], Events)> = (0..40)
+            .map(|k| {
+                let vel = [0.17 * k as f64 - 3.3, 2.1 - 0.11 * k as f64];
+                (vel, trails(vel, k + 1))
+            })
+            .collect();
+        {
+            let mut vs = VoteScratch::default();
+            let start = std::time::Instant::now();
+            let mut sum = 0.0;
+            for _ in 0..20 {
+                for (_, events) in &cases {
+                    sum += vote(events, [0.0, 0.0], 8.0, 0.5, &mut vs).map_or(0.0, |p| p.ratio);
+                }
+            }
+            eprintln!(
+                "vote: {:.1} µs per window ({sum})",
+                start.elapsed().as_secs_f64() * 1e6 / (20 * cases.len()) as f64
+            );
+        }
+        for search in [SearchMethod::Grid, SearchMethod::Newton] {
+            let params = MotionParams {
+                search,
+                ..MotionParams::default()
+            };
+            let (fine, coarse) = (
+                SplatTable::new(params.splat),
+                SplatTable::new(Splat::Bilinear),
+            );
+            let mut s = SearchScratch::default();
+            let (mut sq, mut bad) = (0.0, 0);
+            let start = std::time::Instant::now();
+            let reps = 20;
+            for _ in 0..reps {
+                for (vel, events) in &cases {
+                    let search = Search {
+                        events,
+                        window: [40, 40],
+                        extent: [40, 40],
+                        centre: [0.0, 0.0],
+                        range: 4.0,
+                        params: &params,
+                        fine: &fine,
+                        coarse: &coarse,
+                    };
+                    let out = search.run(&mut s).unwrap();
+                    let e = (out.velocity[0] - vel[0]).hypot(out.velocity[1] - vel[1]);
+                    if e.is_finite() && e < 0.2 {
+                        sq += e * e;
+                    } else {
+                        bad += 1;
+                        if bad <= 12 {
+                            eprintln!("{vel:?} -> {:?} {:?}", out.velocity, out.status);
+                        }
+                    }
+                }
+            }
+            let windows = (reps * cases.len()) as f64;
+            let per_window = start.elapsed().as_secs_f64() * 1e6 / windows;
+            let evaluations = s.work.evaluations as f64 / windows;
+            eprintln!(
+                "{search:?}: {per_window:.1} µs per window, {evaluations:.1} evaluations per \
+                 window ({:.2} µs each), rms error {:.4} px/ms, {bad} failures",
+                per_window / evaluations,
+                (sq / (windows - bad as f64)).sqrt()
+            );
+        }
     }
 }

@@ -1,0 +1,117 @@
+//! Newton ascent on the IWE's Σ I² with its analytic gradient and Hessian.
+//!
+//! Gallego, Rebecq & Scaramuzza (CVPR 2018) maximise the contrast with derivatives of the
+//! objective in the motion parameters instead of scanning them. With a Gaussian splat the
+//! IWE is a smooth function of the velocity, and so are Σ I² and the variance (which differs
+//! from Σ I² by a scale and a constant on a canvas that keeps every event), so Newton steps
+//! converge quadratically once inside the peak's basin, whose half-width is about the splat
+//! width over the events' r.m.s. time, ≈ 0.3 px/ms for σ = 0.8 px and T = 10 ms. The start
+//! comes from the pair-velocity histogram ([`super::votes`]), which is good to a fraction
+//! of its cell.
+
+use super::iwe::{derivatives, Canvas, Derivatives, Events, SplatTable, Workspace};
+
+/// Newton iterations at most.
+const MAX_STEPS: usize = 12;
+/// Largest step, px/ms: about the basin's half-width.
+const TRUST: f64 = 0.25;
+/// Converged when a step is shorter than this, px/ms.
+const TOLERANCE: f64 = 5e-4;
+/// A Newton step shorter than this, px/ms, is the last: taken without evaluating.
+const FINISH: f64 = 5e-3;
+/// Halvings of a step that lowered the objective before giving up.
+const BACKTRACK: usize = 4;
+
+/// The maximum found: velocity and Σ I² there.
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct Ascent {
+    pub velocity: [f64; 2],
+    pub squares: f64,
+}
+
+/// Climb Σ I² from `start` inside the box `centre ± half` (each axis), which `canvas` must
+/// cover: Newton steps where the Hessian is negative definite, gradient steps of at most
+/// [`TRUST`] elsewhere, each step halved while it lowers the objective; at most
+/// [`MAX_STEPS`] steps.
+pub(crate) fn ascend(
+    events: &Events,
+    start: [f64; 2],
+    centre: [f64; 2],
+    half: f64,
+    canvas: &Canvas,
+    table: &SplatTable,
+    work: &mut Workspace,
+) -> Ascent {
+    let clamp = |v: [f64; 2]| {
+        [
+            v[0].clamp(centre[0] - half, centre[0] + half),
+            v[1].clamp(centre[1] - half, centre[1] + half),
+        ]
+    };
+    let mut v = clamp(start);
+    let mut d = derivatives(events, v, canvas, table, work);
+    for _ in 0..MAX_STEPS {
+        let (step, newton) = direction(&d);
+        if !(step[0].is_finite() && step[1].is_finite()) {
+            break;
+        }
+        if newton && step[0].hypot(step[1]) < FINISH {
+            // Inside the quadratic region the step's error is of the order of its square:
+            // take it without evaluating the objective there.
+            v = clamp([v[0] + step[0], v[1] + step[1]]);
+            break;
+        }
+        let mut taken = None;
+        let mut scale = 1.0;
+        for _ in 0..=BACKTRACK {
+            let next = clamp([v[0] + scale * step[0], v[1] + scale * step[1]]);
+            if next == v {
+                break;
+            }
+            let dn = derivatives(events, next, canvas, table, work);
+            if dn.squares >= d.squares {
+                taken = Some((next, dn));
+                break;
+            }
+            scale *= 0.5;
+        }
+        let Some((next, dn)) = taken else {
+            break;
+        };
+        let length = (next[0] - v[0]).hypot(next[1] - v[1]);
+        v = next;
+        d = dn;
+        if length < TOLERANCE {
+            break;
+        }
+    }
+    Ascent {
+        velocity: v,
+        squares: d.squares,
+    }
+}
+
+/// The Newton step `−H⁻¹ g` if the Hessian is negative definite, else the gradient
+/// direction; at most [`TRUST`] long.
+/// Whether it is a Newton step is returned with it.
+fn direction(d: &Derivatives) -> ([f64; 2], bool) {
+    let [[a, b], [_, c]] = d.hessian;
+    let g = d.gradient;
+    let det = a * c - b * b;
+    let newton = a < 0.0 && det > 0.0;
+    let step = if newton {
+        [-(c * g[0] - b * g[1]) / det, -(a * g[1] - b * g[0]) / det]
+    } else {
+        let norm = g[0].hypot(g[1]);
+        if norm == 0.0 {
+            return ([0.0, 0.0], false);
+        }
+        [TRUST * g[0] / norm, TRUST * g[1] / norm]
+    };
+    let length = step[0].hypot(step[1]);
+    if length > TRUST {
+        ([step[0] * TRUST / length, step[1] * TRUST / length], false)
+    } else {
+        (step, newton)
+    }
+}
