@@ -245,4 +245,19 @@ fn init_writes_a_config_that_process_reads_and_checks() {
     );
     let o = ebiv(&["process", "x.raw", "--method", "magic"]);
     assert!(stderr(&o).contains("method"), "{}", stderr(&o));
+    let o = ebiv(&[
+        "process",
+        "x.raw",
+        "--method",
+        "motion",
+        "--motion-search",
+        "gird",
+    ]);
+    assert!(
+        stderr(&o).contains("`gird` is not newton or grid"),
+        "{}",
+        stderr(&o)
+    );
+    let o = ebiv(&["process", "x.raw", "--peak-smoothing=-1"]);
+    assert!(stderr(&o).contains("peak_smoothing_px"), "{}", stderr(&o));
 }

@@ -123,6 +123,11 @@ pub struct ProcessArgs {
     /// maximum before the sub-pixel fit, against peak locking (default 1; 0 = off).
     #[arg(long, value_name = "PX")]
     pub peak_smoothing: Option<f64>,
+    /// motion: how the contrast maximum is found: newton (analytic gradient and Hessian from
+    /// an event-pair vote, about four evaluations; the default) or grid (the paper's coarse
+    /// grid and 5×5 refinement, 100–200 evaluations).
+    #[arg(long, value_name = "METHOD")]
+    pub motion_search: Option<String>,
     /// motion: half-width of the velocity search range in px/ms (default: window/slab,
     /// a quarter of it around a previous pass's prediction).
     #[arg(long, value_name = "PX_PER_MS")]
@@ -192,6 +197,7 @@ impl ProcessArgs {
             png: self.png.clone(),
             fit: self.fit.clone(),
             peak_smoothing: self.peak_smoothing,
+            motion_search: self.motion_search.clone(),
             search_range: self.search_range,
             replace: self.replace.then_some(true),
             mm_per_px: self.mm_per_px,

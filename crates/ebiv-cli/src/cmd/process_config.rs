@@ -28,6 +28,7 @@ pub struct ProcessConfig {
     pub png: Option<PathBuf>,
     pub fit: Option<String>,
     pub peak_smoothing: Option<f64>,
+    pub motion_search: Option<String>,
     pub search_range: Option<f64>,
     pub replace: Option<bool>,
     pub mm_per_px: Option<f64>,
@@ -116,6 +117,7 @@ impl ProcessConfig {
             png,
             fit,
             peak_smoothing,
+            motion_search,
             search_range,
             replace,
             mm_per_px,
@@ -173,6 +175,8 @@ output = "flow.nc"              # .nc, .csv, .npz, .dat (Tecplot) or .vtk
 #                               # (default: gauss2d for corrsum, gauss3 for motion)
 # peak-smoothing = 1.0          # corrsum: Gaussian σ (px) smoothing the plane near its peak
 #                               # before the fit, against peak locking; 0 = off
+# motion-search = "newton"      # motion: newton (default, ~4 evaluations per window) or grid
+#                               # (the paper's coarse grid + 5x5 refinement)
 # search-range = 4.0            # motion: half-width of the velocity search, px/ms
 #                               # (default: window / slab, a quarter of it around a predictor)
 replace = false                 # replace outliers of the last pass by interpolation

@@ -4,7 +4,7 @@
 use super::process_config::ProcessConfig;
 use crate::progress::count_bar;
 use ebiv::estimate::corrsum::{CorrSumParams, SumOfCorrelation};
-use ebiv::estimate::motion::{ContrastMaximization, MotionParams};
+use ebiv::estimate::motion::{ContrastMaximization, MotionParams, SearchMethod};
 use ebiv::estimate::peak::SubPixelFit;
 use ebiv::estimate::Estimator;
 use ebiv::field::{Calibration, FieldSeries};
@@ -155,6 +155,18 @@ impl Settings {
         if let Some(fit) = fit {
             corrsum.fit = fit;
             motion.fit = fit;
+        }
+        if let Some(search) = c.motion_search.as_deref() {
+            motion.search = match search {
+                "newton" => SearchMethod::Newton,
+                "grid" => SearchMethod::Grid,
+                other => {
+                    return Err(Error::parameter(
+                        "motion-search",
+                        format!("`{other}` is not newton or grid"),
+                    ))
+                }
+            };
         }
         if let Some(sigma) = c.peak_smoothing {
             corrsum.peak_smoothing_px = sigma;
