@@ -116,7 +116,8 @@ pub struct ProcessArgs {
     /// v, and an animated GIF of the series.
     #[arg(long, value_name = "DIR")]
     pub png: Option<PathBuf>,
-    /// Sub-pixel peak fit: gauss3, parabolic or gauss2d.
+    /// Sub-pixel peak fit: gauss3, parabolic or gauss2d (motion: only where its grid search
+    /// runs; the Newton search finds the continuous maximum).
     #[arg(long)]
     pub fit: Option<String>,
     /// corrsum: σ in px of the Gaussian that smooths the summed correlation plane around its

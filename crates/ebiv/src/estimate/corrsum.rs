@@ -120,8 +120,10 @@ impl Default for CorrSumParams {
 const MAX_SLAB_US: i64 = 16_000_000;
 /// Widest smoothing of the plane before the peak fit, px.
 const MAX_PEAK_SMOOTHING_PX: f64 = 5.0;
-/// Most slices per sub-volume.
-const MAX_SLICES: u32 = 100_000;
+/// Most slices per sub-volume (slices of T/1000, 10 µs at T = 10 ms; the paper uses 20). The
+/// per-thread occupancy bitmaps (and, with count weighting, counts) grow with slices × window
+/// area.
+const MAX_SLICES: u32 = 1000;
 
 impl CorrSumParams {
     /// Reject parameters that cannot give a meaningful correlation.

@@ -228,16 +228,19 @@ pub fn process_recording<E: Estimator, S: BatchSource + Send>(
     for (k, &t0) in times.iter().enumerate() {
         let current = slab.take().expect("a slab is built for every field");
         let following = times.get(k + 1).copied();
-        // The events of this field stay in memory for `on_field`.
+        // Fields whose intervals overlap or touch: the next slab is read and built while this
+        // one is evaluated, keeping this field's events for `on_field` (memory: two
+        // overlapping intervals). Fields further apart run one after the other, so the gap
+        // between them is never held.
+        let overlapping = following.filter(|&t1| t1 - before <= t0 + after);
         let (result, built) = rayon::join(
             || process_slab(estimator, &current, t0, &grids, params),
             || {
-                following
+                overlapping
                     .map(|t1| next_slab(&mut sliding, t1, t0 - before))
                     .transpose()
             },
         );
-        slab = built?;
         summary.events_read = sliding.events_read;
         summary.fields += 1;
         summary.vectors += result.field.len();
@@ -251,6 +254,11 @@ pub fn process_recording<E: Estimator, S: BatchSource + Send>(
             field: &result.field,
             events: sliding.events(),
         });
+        slab = match (built?, following) {
+            (Some(next), _) => Some(next),
+            (None, Some(t1)) => Some(next_slab(&mut sliding, t1, t1 - before)?),
+            (None, None) => None,
+        };
     }
     Ok((series, summary))
 }

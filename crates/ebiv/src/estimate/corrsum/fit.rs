@@ -95,11 +95,14 @@ pub(super) fn refine_smoothed(
     sigma: f64,
     fit: SubPixelFit,
 ) -> [f64; 2] {
-    if sigma.is_nan() || sigma <= 0.0 || peak.on_edge {
-        return refine_tilted(plane, width, peak, fit);
-    }
     let (w, h) = (width as isize, height as isize);
     let (r0, c0) = (peak.row as isize, peak.col as isize);
+    // Near the plane's border the kernel would be one-sided and pull the fit toward the
+    // border: no smoothing there (nor for σ too small to matter, or on small planes).
+    let room = r0.min(c0).min(h - 1 - r0).min(w - 1 - c0);
+    if sigma.is_nan() || sigma < MIN_SIGMA || peak.on_edge || room < reach(sigma) + BLOCK {
+        return refine_tilted(plane, width, peak, fit);
+    }
     let smoothed = Smoothed::around(plane, [w, h], [r0, c0], sigma);
     // The smoothed maximum lies at or next to the plane's (not on the plane's border).
     let mut best = (r0, c0, smoothed.at(r0, c0));
@@ -142,6 +145,13 @@ pub(super) fn refine_smoothed(
 const BLOCK: isize = 2;
 /// Widest kernel half-width, taps (σ ≤ 5 px).
 const MAX_REACH: usize = 10;
+/// Smaller σ smooths nothing measurable (and `2σ²` could underflow).
+const MIN_SIGMA: f64 = 1e-3;
+
+/// Kernel half-width for `sigma`: the Gaussian truncated at ±2σ.
+fn reach(sigma: f64) -> isize {
+    ((2.0 * sigma).ceil() as usize).min(MAX_REACH) as isize
+}
 
 /// The plane smoothed by a truncated Gaussian (±2σ) on the 5 × 5 block around a point,
 /// renormalised where the kernel leaves the plane or meets non-finite values: a separable
@@ -153,7 +163,7 @@ struct Smoothed {
 
 impl Smoothed {
     fn around(plane: &[f64], [w, h]: [isize; 2], [r0, c0]: [isize; 2], sigma: f64) -> Self {
-        let reach = ((2.0 * sigma).ceil() as usize).min(MAX_REACH);
+        let reach = reach(sigma) as usize;
         let mut taps = [0.0; 2 * MAX_REACH + 1];
         for (k, t) in taps.iter_mut().take(2 * reach + 1).enumerate() {
             let d = k as f64 - reach as f64;

@@ -202,15 +202,18 @@ fn voxeliser_bins_by_slice_and_deduplicates() {
 #[test]
 fn slices_are_exact_with_and_without_the_table() {
     // Short sub-volumes use the tabulated slices, long ones the arithmetic: both give ⌊tN/T⌋.
+    // One voxeliser throughout: its table is reused or rebuilt as the sub-volume changes.
+    let mut voxeliser = Voxeliser::new(1, 1);
+    let mut out = Voxels::default();
     for (slab, slices) in [
         (1000i64, 7u32),
         (10_000, 20),
         (13_000, 26),
+        (10_000, 20),
+        (20_000, 40),
         (200_000, 30),
         (99_991, 13),
     ] {
-        let mut voxeliser = Voxeliser::new(1, 1);
-        let mut out = Voxels::default();
         for t in [0, 1, slab / 3, slab / 2 + 1, slab - 2, slab - 1] {
             let events = WindowEvents {
                 x: vec![0.0],

@@ -159,7 +159,14 @@ impl Voxeliser {
     /// with `count`, counted) voxels.
     pub fn begin(&mut self, slab_us: i64, slices: usize, count: bool) {
         let (slab_us, slices) = (slab_us.max(1), slices.max(1));
-        if (slab_us, slices) != (self.slab_us, self.slices) || self.slice_table.is_empty() {
+        // The same slice length (N/T) gives the same ⌊tN/T⌋: a table as long as `slab_us`
+        // serves both the shared and the separate binning of a run.
+        let same_length = slices as i64 * self.slab_us == self.slices as i64 * slab_us;
+        let covered = same_length && slab_us as usize <= self.slice_table.len();
+        if covered {
+            self.slab_us = slab_us;
+            self.slices = slices;
+        } else if (slab_us, slices) != (self.slab_us, self.slices) || self.slice_table.is_empty() {
             self.slab_us = slab_us;
             self.slices = slices;
             self.slices_per_us = slices as f64 / slab_us as f64;

@@ -252,6 +252,15 @@ impl Search<'_> {
             // of the whole range is more reliable than an ascent from one of them.
             return None;
         }
+        // Starts lie on vote cells, which may reach past the range by part of a cell: clamp
+        // them to the range the canvas covers.
+        let (c, e) = (self.centre, extent);
+        for start in &mut s.votes.starts {
+            *start = [
+                start[0].clamp(c[0] - e, c[0] + e),
+                start[1].clamp(c[1] - e, c[1] + e),
+            ];
+        }
         // Several starts: the one with the highest objective (one plain evaluation each).
         let mut from = s.votes.starts[0];
         if s.votes.starts.len() > 1 {

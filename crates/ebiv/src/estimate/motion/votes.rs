@@ -5,8 +5,8 @@
 //! of the pairs' velocities `Δx / Δt` (the pairwise form of contrast maximisation that
 //! projection-concentration methods use, algorithms.md §15.1). Pairs far apart in time vote
 //! sharply; pairs close in time vote for a broad blur of velocities and carry little
-//! information. A histogram of the velocities of the pairs between the first and the last
-//! third of the window's time span, smoothed, is therefore a coarse picture of the
+//! information. A histogram of the velocities of the pairs at least a quarter of the window's
+//! time span apart ([`MIN_GAP`]), smoothed, is therefore a coarse picture of the
 //! objective over a range much wider than the search range, for one pass over those pairs
 //! instead of one IWE per candidate.
 
