@@ -22,6 +22,14 @@ pub enum SubPixelFit {
 }
 
 impl SubPixelFit {
+    /// The per-axis 3-point fit this estimator uses (and the 2-D Gaussian falls back to).
+    pub fn per_axis(self) -> SubPixelFit {
+        match self {
+            SubPixelFit::Gaussian2d => SubPixelFit::Gaussian3,
+            fit => fit,
+        }
+    }
+
     /// Parse `gauss3`, `parabolic`, `gauss2d` (and the serde names).
     pub fn parse(text: &str) -> Option<Self> {
         match text {
@@ -162,11 +170,7 @@ pub fn find_peak(
         }
     }
     if !fitted {
-        let fit1 = if fit == SubPixelFit::Gaussian2d {
-            SubPixelFit::Gaussian3
-        } else {
-            fit
-        };
+        let fit1 = fit.per_axis();
         if !on_edge_x {
             x += three_point(at(row, col - 1), value, at(row, col + 1), fit1).unwrap_or(0.0);
         }

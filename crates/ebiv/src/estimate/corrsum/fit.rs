@@ -119,14 +119,7 @@ pub(super) fn refine_smoothed(
     for (k, v) in local.iter_mut().enumerate() {
         *v = smoothed.at(r0 + k as isize / 3 - 1, c0 + k as isize % 3 - 1);
     }
-    let axis = |a: f64, b: f64, c: f64| {
-        let fit1 = if fit == SubPixelFit::Gaussian2d {
-            SubPixelFit::Gaussian3
-        } else {
-            fit
-        };
-        1.0 + three_point(a, b, c, fit1).unwrap_or(0.0)
-    };
+    let axis = |a: f64, b: f64, c: f64| 1.0 + three_point(a, b, c, fit.per_axis()).unwrap_or(0.0);
     let centre = Peak {
         col: 1,
         row: 1,

@@ -192,11 +192,7 @@ impl Search<'_> {
             offset = peak::gaussian_2d(n);
         }
         let offset = offset.unwrap_or_else(|| {
-            let fit = if fit == SubPixelFit::Gaussian2d {
-                SubPixelFit::Gaussian3
-            } else {
-                fit
-            };
+            let fit = fit.per_axis();
             let b = best.2;
             let dx = peak::three_point(at(-1, 0), b, at(1, 0), fit).unwrap_or(0.0);
             let dy = peak::three_point(at(0, -1), b, at(0, 1), fit).unwrap_or(0.0);
