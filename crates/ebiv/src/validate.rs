@@ -83,8 +83,11 @@ pub struct ValidationSummary {
     pub low_peak_ratio: usize,
     /// Flagged [`Status::OUT_OF_RANGE`] by the magnitude limit.
     pub out_of_range: usize,
-    /// Flagged [`Status::MEDIAN_TEST`].
+    /// Flagged [`Status::MEDIAN_TEST`] (and not re-evaluated on a secondary peak).
     pub median_test: usize,
+    /// Median-test outliers that a lower peak near their neighbours' median made valid
+    /// again (multiple-peak validation of `process`; counted in `valid_after`).
+    pub secondary_peaks: usize,
 }
 
 impl ValidationSummary {
@@ -156,39 +159,90 @@ fn count_valid(field: &VectorField) -> usize {
 
 /// Indices of the valid vectors failing the normalized median test, from an unchanged field.
 fn median_outliers(field: &VectorField, threshold: f64, epsilon: f64) -> Vec<usize> {
-    let (h, w) = (field.height(), field.width());
-    let valid = |i: usize| field.status[i].is_valid() && field.u[i].is_finite();
-    let mut us = Vec::with_capacity(8);
-    let mut vs = Vec::with_capacity(8);
     let mut outliers = Vec::new();
-    for r in 0..h {
-        for c in 0..w {
+    for r in 0..field.height() {
+        for c in 0..field.width() {
             let i0 = field.index(r, c);
-            if !valid(i0) {
+            if !is_usable(field, i0) {
                 continue;
             }
-            us.clear();
-            vs.clear();
-            for rr in block(r, h) {
-                for cc in block(c, w) {
-                    let i = field.index(rr, cc);
-                    if i != i0 && valid(i) {
-                        us.push(field.u[i] as f64);
-                        vs.push(field.v[i] as f64);
-                    }
-                }
-            }
-            if us.len() < 3 {
+            let Some(reference) = neighbour_median(field, r, c) else {
                 continue;
-            }
-            let fails =
-                |x0: f32, xs: &mut [f64]| normalized_residual(x0 as f64, xs, epsilon) > threshold;
-            if fails(field.u[i0], &mut us) || fails(field.v[i0], &mut vs) {
+            };
+            if !reference.passes(field.u[i0] as f64, field.v[i0] as f64, threshold, epsilon) {
                 outliers.push(i0);
             }
         }
     }
     outliers
+}
+
+/// A valid vector with a finite value: one the median test may use as a neighbour.
+fn is_usable(field: &VectorField, i: usize) -> bool {
+    field.status[i].is_valid() && field.u[i].is_finite() && field.v[i].is_finite()
+}
+
+/// What the normalized median test compares a vector with: per component, the median `u_m`
+/// of its valid neighbours and the median `r_m` of their residuals `|u_i − u_m|`.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct NeighbourMedian {
+    /// `[u_m, v_m]`, px/ms (or the field's unit).
+    pub median: [f64; 2],
+    /// `[r_m(u), r_m(v)]`.
+    pub spread: [f64; 2],
+}
+
+impl NeighbourMedian {
+    /// Largest normalized residual `|x − x_m| / (r_m + ε)` of the two components (NaN for a
+    /// NaN component; 0 for a component equal to its median even where `r_m + ε` is 0).
+    pub fn residual(&self, u: f64, v: f64, epsilon: f64) -> f64 {
+        let r = |k: usize, x: f64| {
+            let d = (x - self.median[k]).abs();
+            if d == 0.0 {
+                0.0
+            } else {
+                d / (self.spread[k] + epsilon)
+            }
+        };
+        let (ru, rv) = (r(0, u), r(1, v));
+        if ru.is_nan() || rv.is_nan() {
+            f64::NAN
+        } else {
+            ru.max(rv)
+        }
+    }
+
+    /// True if neither component's normalized residual exceeds `threshold`.
+    pub fn passes(&self, u: f64, v: f64, threshold: f64, epsilon: f64) -> bool {
+        self.residual(u, v, epsilon) <= threshold
+    }
+}
+
+/// The median test's reference for node `(row, col)` from the valid vectors of its 3 × 3
+/// block (shifted inside the grid on the border, centre excluded); `None` with fewer than 3.
+pub fn neighbour_median(field: &VectorField, row: usize, col: usize) -> Option<NeighbourMedian> {
+    let (h, w) = (field.height(), field.width());
+    let i0 = field.index(row, col);
+    let mut us = Vec::with_capacity(8);
+    let mut vs = Vec::with_capacity(8);
+    for rr in block(row, h) {
+        for cc in block(col, w) {
+            let i = field.index(rr, cc);
+            if i != i0 && is_usable(field, i) {
+                us.push(field.u[i] as f64);
+                vs.push(field.v[i] as f64);
+            }
+        }
+    }
+    if us.len() < 3 {
+        return None;
+    }
+    let (mu, ru) = median_and_spread(&mut us);
+    let (mv, rv) = median_and_spread(&mut vs);
+    Some(NeighbourMedian {
+        median: [mu, mv],
+        spread: [ru, rv],
+    })
 }
 
 /// Rows (or columns) of the 3-node block around node `i` of `n`, shifted inside the grid.
@@ -200,13 +254,13 @@ fn block(i: usize, n: usize) -> std::ops::Range<usize> {
     start..start + 3
 }
 
-/// Westerweel & Scarano's `|x0 − median| / (median |x_i − median| + ε)`; reorders `xs`.
-fn normalized_residual(x0: f64, xs: &mut [f64], epsilon: f64) -> f64 {
+/// Median `m` of `xs` and median of `|x_i − m|` (Westerweel & Scarano's `r_m`); reorders `xs`.
+fn median_and_spread(xs: &mut [f64]) -> (f64, f64) {
     let m = median(xs);
     for x in xs.iter_mut() {
         *x = (*x - m).abs();
     }
-    (x0 - m).abs() / (median(xs) + epsilon)
+    (m, median(xs))
 }
 
 /// Median of a non-empty slice (mean of the two middle values for an even length).

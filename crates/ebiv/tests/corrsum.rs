@@ -128,6 +128,7 @@ fn run(
     let predictor = predictor.map(|velocity| Prediction {
         velocity,
         deformation: None,
+        search_radius: None,
     });
     est.estimate(slab, window, T0, predictor.as_ref(), &mut scratch)
 }

@@ -91,6 +91,7 @@ fn run(est: &ContrastMaximization, slab: &Slab, predictor: Option<[f64; 2]>) -> 
     let predictor = predictor.map(|velocity| Prediction {
         velocity,
         deformation: None,
+        search_radius: None,
     });
     est.estimate(slab, &WINDOW, T0, predictor.as_ref(), &mut scratch)
 }
@@ -307,6 +308,7 @@ fn time_per_window() {
                 let p = predictor.then(|| Prediction {
                     velocity: [vel[0] + 0.3, vel[1] - 0.2],
                     deformation: None,
+                    search_radius: None,
                 });
                 let e = est.estimate(slab, &WINDOW, T0, p.as_ref(), &mut scratch);
                 events += e.event_count as usize;

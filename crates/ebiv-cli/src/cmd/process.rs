@@ -149,6 +149,11 @@ pub struct ProcessArgs {
     /// their flag plus `replaced`).
     #[arg(long)]
     pub replace: bool,
+    /// Keep the last pass's median-test outliers flagged instead of re-evaluating them on a
+    /// lower peak near their neighbours' median (multi-pass runs of corrsum and motion;
+    /// accepted vectors are valid with peak_ratio <= 1).
+    #[arg(long)]
+    pub no_secondary_peaks: bool,
     /// Calibration: millimetres per pixel; outputs then give mm and m/s.
     #[arg(long)]
     pub mm_per_px: Option<f64>,
@@ -201,6 +206,7 @@ impl ProcessArgs {
             motion_search: self.motion_search.clone(),
             search_range: self.search_range,
             replace: self.replace.then_some(true),
+            secondary_peaks: self.no_secondary_peaks.then_some(false),
             mm_per_px: self.mm_per_px,
             origin: self.origin,
             y_up: self.y_up.then_some(true),

@@ -31,6 +31,7 @@ pub struct ProcessConfig {
     pub motion_search: Option<String>,
     pub search_range: Option<f64>,
     pub replace: Option<bool>,
+    pub secondary_peaks: Option<bool>,
     pub mm_per_px: Option<f64>,
     pub origin: Option<[f64; 2]>,
     pub y_up: Option<bool>,
@@ -120,6 +121,7 @@ impl ProcessConfig {
             motion_search,
             search_range,
             replace,
+            secondary_peaks,
             mm_per_px,
             origin,
             y_up,
@@ -180,6 +182,9 @@ output = "flow.nc"              # .nc, .csv, .npz, .dat (Tecplot) or .vtk
 # search-range = 4.0            # motion: half-width of the velocity search, px/ms
 #                               # (default: window / slab, a quarter of it around a predictor)
 replace = false                 # replace outliers of the last pass by interpolation
+secondary-peaks = true          # corrsum/motion, multi-pass: re-evaluate the last pass's
+                                # median-test outliers on a lower peak (>= half the highest)
+                                # near their neighbours' median; accepted: peak_ratio <= 1
 
 # mask = "mask.png"             # image of the sensor size; non-zero pixels are left out
 

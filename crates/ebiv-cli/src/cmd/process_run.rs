@@ -221,6 +221,7 @@ impl Settings {
                 polarity,
                 validation,
                 replace_final: c.replace.unwrap_or(false),
+                secondary_peaks: c.secondary_peaks.unwrap_or(true),
                 ..ProcessParams::default()
             },
             time,
@@ -463,8 +464,12 @@ pub fn finish_recording_run(
         .attributes
         .push(("source".into(), s.input.display().to_string()));
     ebiv::export::write_field(series, &s.output)?;
+    let secondary = match summary.secondary_peaks {
+        0 => String::new(),
+        n => format!("; {n} outliers valid on a secondary peak"),
+    };
     println!(
-        "{} vectors in {} field(s), {:.1} % valid ({} flagged by validation), in {:.2} s ({:.1} M events/s read, {:.0} vectors/s)",
+        "{} vectors in {} field(s), {:.1} % valid ({} flagged by validation{secondary}), in {:.2} s ({:.1} M events/s read, {:.0} vectors/s)",
         summary.vectors,
         summary.fields,
         100.0 * summary.valid as f64 / summary.vectors.max(1) as f64,

@@ -27,7 +27,7 @@ mod voxels;
 
 use serde::{Deserialize, Serialize};
 
-use super::peak::{find_peak, SubPixelFit};
+use super::peak::{find_peak, find_peak_within, SubPixelFit};
 use super::{Estimator, Prediction, WindowEstimate};
 use crate::error::{Error, Result};
 use crate::field::Status;
@@ -330,6 +330,18 @@ fn direct_is_slower(pairs: usize, valid_slices: usize, shape: PlaneShape) -> boo
     pairs as f64 * PAIR_NS > valid_slices as f64 * bins as f64 * FFT_NS_PER_BIN
 }
 
+/// Columns and rows of the correlation plane within `radius_px` of its centre `[rx, ry]`
+/// (the predicted displacement), at least 2 cells each way so that a peak inside can be
+/// fitted and told from one on the border.
+fn search_box(radius_px: f64, centre: [usize; 2]) -> [std::ops::Range<usize>; 2] {
+    let half = if radius_px.is_finite() {
+        radius_px.abs().ceil().clamp(2.0, 1e6) as usize
+    } else {
+        usize::MAX / 4
+    };
+    centre.map(|c| c.saturating_sub(half)..c.saturating_add(half + 1))
+}
+
 /// Symmetric discrete window offset for a predicted displacement `d` px: S1 is gathered from
 /// the window moved by `−s1`, S2 by `+s2`, `s1 = round(d/2)`, `s2 = round(d − s1)`, so the
 /// residual `d − s1 − s2` is at most half a pixel.
@@ -388,7 +400,15 @@ impl Estimator for SumOfCorrelation {
         };
         let shape = scratch.shape;
         let (pw, ph) = (shape.plane_width(), shape.plane_height());
-        let Some(peak) = find_peak(&scratch.plane, pw, ph, self.params.fit, EXCLUSION_PX) else {
+        let fit = self.params.fit;
+        let peak = match predictor.and_then(|p| p.search_radius) {
+            Some(radius) => {
+                let [cols, rows] = search_box(radius * tau_ms, [shape.rx, shape.ry]);
+                find_peak_within(&scratch.plane, pw, ph, fit, EXCLUSION_PX, cols, rows)
+            }
+            None => find_peak(&scratch.plane, pw, ph, fit, EXCLUSION_PX),
+        };
+        let Some(peak) = peak else {
             return WindowEstimate::invalid(Status::NO_PEAK, events);
         };
         let mut result = WindowEstimate::invalid(Status::NO_PEAK, events);

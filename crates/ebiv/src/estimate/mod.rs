@@ -24,6 +24,10 @@ pub struct Prediction {
     pub velocity: [f64; 2],
     /// Affine motion around the window centre (PIV window deformation, for events).
     pub deformation: Option<Deformation>,
+    /// Restrict the search to velocities within this distance (px/ms, per axis) of
+    /// `velocity`; `None`: the estimator's own range. Used to re-evaluate a window whose
+    /// highest peak failed validation on a lower peak near its neighbours' median.
+    pub search_radius: Option<f64>,
 }
 
 /// Gather the events of `window` in `[t_from, t_to)` (times relative to `t_ref_us`),

@@ -190,6 +190,40 @@ pub fn find_peak(
     })
 }
 
+/// [`find_peak`] restricted to the box of columns `cols` and rows `rows` of the map (clamped
+/// to it): the highest cell of the box, fitted within it, in the coordinates of the whole
+/// map. `on_edge` means on the box's border (the restriction, not the peak, decided the
+/// result); `second` is the second peak within the box.
+pub fn find_peak_within(
+    map: &[f64],
+    width: usize,
+    height: usize,
+    fit: SubPixelFit,
+    exclusion: usize,
+    cols: std::ops::Range<usize>,
+    rows: std::ops::Range<usize>,
+) -> Option<Peak> {
+    let cols = cols.start.min(width)..cols.end.min(width);
+    let rows = rows.start.min(height)..rows.end.min(height);
+    if map.len() < width * height || cols.is_empty() || rows.is_empty() {
+        return None;
+    }
+    let boxed: Vec<f64> = rows
+        .clone()
+        .flat_map(|r| {
+            map[r * width + cols.start..r * width + cols.end]
+                .iter()
+                .copied()
+        })
+        .collect();
+    let mut peak = find_peak(&boxed, cols.len(), rows.len(), fit, exclusion)?;
+    peak.col += cols.start;
+    peak.row += rows.start;
+    peak.x += cols.start as f64;
+    peak.y += rows.start as f64;
+    Some(peak)
+}
+
 /// Highest finite local maximum (≥ its 8 neighbours, none NaN) farther than `exclusion`
 /// (Chebyshev) from `(row, col)`, NaN if none. Only cells above the best found so far are
 /// tested for being local maxima, so the scan costs little more than one comparison per
@@ -326,6 +360,31 @@ mod tests {
         assert!((p.ratio() - 1.0 / (0.25 + m[6 * 8 + 6] - 0.25)).abs() < 1e-9);
         assert!(find_peak(&[], 0, 0, SubPixelFit::Gaussian3, 1).is_none());
         assert!(find_peak(&[f64::NAN; 4], 2, 2, SubPixelFit::Gaussian3, 1).is_none());
+    }
+
+    #[test]
+    fn restricted_search_finds_the_lower_peak_inside_its_box() {
+        // A high peak at (3, 3) and a lower one at (12.3, 11.6) on a 16 × 16 map.
+        let mut m = gaussian_map(16, 16, 3.0, 3.0, 1.0, 1.0);
+        let low = gaussian_map(16, 16, 12.3, 11.6, 1.0, 1.0);
+        for (a, b) in m.iter_mut().zip(&low) {
+            *a += 0.5 * b;
+        }
+        let fit = SubPixelFit::Gaussian3;
+        let p = find_peak_within(&m, 16, 16, fit, 2, 9..16, 8..15).unwrap();
+        assert_eq!((p.col, p.row), (12, 12));
+        assert!(!p.on_edge);
+        assert!(
+            (p.x - 12.3).abs() < 0.01 && (p.y - 11.6).abs() < 0.01,
+            "{p:?}"
+        );
+        assert_eq!(p.value, m[12 * 16 + 12]);
+        // A box that cuts the high peak's flank: its maximum lies on the box border.
+        let p = find_peak_within(&m, 16, 16, fit, 2, 5..9, 0..8).unwrap();
+        assert!(p.on_edge && p.col == 5, "{p:?}");
+        // Boxes are clamped to the map; an empty box has no peak.
+        assert!(find_peak_within(&m, 16, 16, fit, 2, 10..99, 10..99).is_some());
+        assert!(find_peak_within(&m, 16, 16, fit, 2, 20..30, 0..4).is_none());
     }
 
     #[test]

@@ -9,9 +9,11 @@
 //! outliers is a separate, optional step.
 
 mod predictor;
+mod secondary;
 mod stream;
 mod times;
 
+pub use secondary::MIN_RELATIVE_HEIGHT as SECONDARY_PEAK_MIN_HEIGHT;
 pub use stream::{
     process_recording, scan_extent, BatchSource, FieldDone, MemorySource, RecordingExtent,
     RunSummary, SlidingEvents,
@@ -57,6 +59,11 @@ pub struct ProcessParams {
     /// Stop repeating the last pass once the mean |Δv| of its vectors between two
     /// repetitions is below this, px/ms.
     pub repeat_tolerance: f64,
+    /// Re-evaluate the median-test outliers of a multi-pass run's last pass on a lower peak
+    /// near their neighbours' median (multiple-peak validation, [`secondary`]); accepted
+    /// vectors are valid with a `peak_ratio` of at most 1. Single passes are never
+    /// re-evaluated.
+    pub secondary_peaks: bool,
 }
 
 impl Default for ProcessParams {
@@ -71,6 +78,7 @@ impl Default for ProcessParams {
             deform: true,
             last_pass_repeats: 2,
             repeat_tolerance: 0.005,
+            secondary_peaks: true,
         }
     }
 }
@@ -134,7 +142,7 @@ pub fn process_slab<E: Estimator>(
     for k in 0..grids.len() + repeats {
         let grid = grids.get(k).unwrap_or(last_grid);
         let mut field = evaluate_pass(estimator, slab, t0_us, grid, params, predictor.as_ref());
-        let validation = validate::validate(&mut field, &params.validation);
+        let mut validation = validate::validate(&mut field, &params.validation);
         let converged = previous
             .as_ref()
             .and_then(|p| mean_change(p, &field))
@@ -146,6 +154,14 @@ pub fn process_slab<E: Estimator>(
             validate::replace_invalid(&mut field, &Default::default());
             predictor = Some(field);
             continue;
+        }
+        if let Some(predictor) = predictor.as_ref().filter(|_| params.secondary_peaks) {
+            let n = secondary::reevaluate_outliers(
+                estimator, slab, t0_us, grid, params, predictor, &mut field,
+            );
+            validation.median_test -= n;
+            validation.valid_after += n;
+            validation.secondary_peaks = n;
         }
         let replaced = if params.replace_final {
             validate::replace_invalid(&mut field, &Default::default())

@@ -45,6 +45,7 @@ pub(super) fn predict(
     Some(Prediction {
         velocity,
         deformation,
+        search_radius: None,
     })
 }
 

@@ -108,6 +108,8 @@ pub struct RunSummary {
     pub events_read: u64,
     /// Vectors flagged by validation, per test, summed over fields.
     pub flagged: usize,
+    /// Median-test outliers made valid by a secondary peak, summed over fields.
+    pub secondary_peaks: usize,
 }
 
 /// What the caller sees after each field: for progress bars and figures.
@@ -246,6 +248,7 @@ pub fn process_recording<E: Estimator, S: BatchSource + Send>(
         summary.vectors += result.field.len();
         summary.valid += result.field.status.iter().filter(|s| s.is_valid()).count();
         summary.flagged += result.validation.valid_before - result.validation.valid_after;
+        summary.secondary_peaks += result.validation.secondary_peaks;
         series.push(t0, &result.field)?;
         on_field(&FieldDone {
             done: k + 1,
