@@ -7,7 +7,7 @@
 //! would receive less than [`IMAGE_FLOOR`] of the background from a particle are left out of
 //! its image.
 
-use super::fastmath::Erf;
+use super::fastmath::{ceil_i64, floor_i64, Erf};
 use super::particles::{Particle, SeedingParams};
 use crate::error::{Error, Result};
 use crate::event::Geometry;
@@ -301,10 +301,10 @@ impl<'a> ParticleRenderer<'a> {
     ) {
         let r = spot.reach;
         let w = self.geometry.width as i64;
-        let x0 = ((spot.x - r).floor() as i64).max(0);
-        let x1 = ((spot.x + r).ceil() as i64).min(w - 1);
-        let y0 = ((spot.y - r).floor() as i64).max(rows.start as i64);
-        let y1 = ((spot.y + r).ceil() as i64).min(rows.end as i64 - 1);
+        let x0 = floor_i64(spot.x - r).max(0);
+        let x1 = ceil_i64(spot.x + r).min(w - 1);
+        let y0 = floor_i64(spot.y - r).max(rows.start as i64);
+        let y1 = ceil_i64(spot.y + r).min(rows.end as i64 - 1);
         if x0 > x1 || y0 > y1 {
             return;
         }
@@ -368,8 +368,8 @@ impl Spot {
     /// The rows `(first, last)` the image may reach (not clipped to the sensor).
     pub fn rows(&self) -> (i64, i64) {
         (
-            (self.y - self.reach).floor() as i64,
-            (self.y + self.reach).ceil() as i64,
+            floor_i64(self.y - self.reach),
+            ceil_i64(self.y + self.reach),
         )
     }
 }

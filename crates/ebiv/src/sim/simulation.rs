@@ -394,10 +394,12 @@ impl Band {
             None => illumination.ambient((k % w) as u32, row0 + (k / w) as u32, t),
         };
         let (value, sensor) = (&mut self.value, &mut self.sensor);
+        // Each pixel gets at most one new sample per step: the lit pixels and the ones lit
+        // before are disjoint, and each appears once in its list.
         let mut update = |k: usize, new: f32| {
             if new != value[k] {
                 value[k] = new;
-                sensor.set_input(k, new);
+                sensor.push_input(k, new);
             }
         };
         if flicker {

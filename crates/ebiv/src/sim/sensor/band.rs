@@ -294,12 +294,21 @@ impl SensorBand {
         }
     }
 
+    /// [`SensorBand::set_input`] for a caller that gives each pixel at most one new sample
+    /// per step (and does not also use `set_input` in that step): the sample is queued
+    /// without marking the pixel or looking for an earlier one.
+    #[inline]
+    pub(crate) fn push_input(&mut self, local: usize, irr: f32) {
+        self.changed.push((local as u32, irr));
+    }
+
     /// Run the step begun by [`SensorBand::begin_step`] (see [`SensorBand::advance`]).
     ///
-    /// Members of the active set without a new sample are visited when due; then every pixel
-    /// with a new sample is updated, joining the active set if it may fire while its input
-    /// stays constant and leaving it otherwise. Each pixel's update depends on that pixel
-    /// alone, so the order of the two passes changes nothing but the order of `out`.
+    /// Every pixel with a new sample is updated, joining the active set if it may fire while
+    /// its input stays constant and leaving it otherwise; then the members of the active set
+    /// not yet at the step's end (those without a new sample) are visited when due. Each
+    /// pixel's update depends on that pixel alone, so the order of the two passes changes
+    /// nothing but the order of `out`.
     pub fn advance_marked(&mut self, out: &mut Vec<SimEvent>) {
         let (ta, tb) = (self.t_now, self.t_next);
         let first = self.rows.start as u64 * self.geometry.width as u64;
@@ -313,11 +322,38 @@ impl SensorBand {
             out,
         };
         let (pixels, wake, active) = (&mut self.pixels, &mut self.wake, &mut self.active);
-        let mut updates = 0;
+        let mut updates = self.changed.len() as u64;
+        let ramps = &mut self.ramps;
+        ramps.clear();
+        ramps.extend(self.changed.iter().map(|&(local, irr)| {
+            StepContext::prepare(ctx.response, &pixels[local as usize], irr, tb - ta)
+        }));
+        for (&(local, _), ramp) in self.changed.iter().zip(ramps.iter()) {
+            let i = local as usize;
+            let px = &mut pixels[i];
+            px.clear_changed();
+            let next = match StepContext::quiet_ramp(ctx.response, px, ta, tb, ramp) {
+                Some(next) => next,
+                None => ctx.step(px, local, ta, tb, Some(ramp.sample())),
+            };
+            match next {
+                Some(next) => {
+                    wake[i] = next;
+                    active.insert(i);
+                }
+                None => active.remove(i),
+            }
+        }
+        self.changed.clear();
         if active.len() > 0 {
             active.retain(|local| {
+                if wake[local] > tb {
+                    return true;
+                }
                 let px = &mut pixels[local];
-                if px.changed() || wake[local] > tb {
+                // Updated to `tb` above (a pixel without a new sample is at or before `ta`;
+                // in a step of no length it has nothing to do).
+                if px.t >= tb {
                     return true;
                 }
                 updates += 1;
@@ -330,29 +366,6 @@ impl SensorBand {
                 }
             });
         }
-        let ramps = &mut self.ramps;
-        ramps.clear();
-        ramps.extend(self.changed.iter().map(|&(local, irr)| {
-            StepContext::prepare(ctx.response, &pixels[local as usize], irr, tb - ta)
-        }));
-        for (&(local, irr), ramp) in self.changed.iter().zip(ramps.iter()) {
-            let i = local as usize;
-            let px = &mut pixels[i];
-            px.clear_changed();
-            let next = match StepContext::quiet_ramp(ctx.response, px, ta, tb, irr, ramp) {
-                Some(next) => next,
-                None => ctx.step(px, local, ta, tb, Some(irr)),
-            };
-            match next {
-                Some(next) => {
-                    wake[i] = next;
-                    active.insert(i);
-                }
-                None => active.remove(i),
-            }
-        }
-        updates += self.changed.len() as u64;
-        self.changed.clear();
         self.updates += updates;
         self.t_now = tb;
     }

@@ -77,12 +77,6 @@ impl Pixel {
         fresh
     }
 
-    /// Whether the pixel has a new sample for the step being prepared.
-    #[inline]
-    pub(super) fn changed(&self) -> bool {
-        self.events & CHANGED != 0
-    }
-
     /// Clear the mark of [`Pixel::mark_changed`].
     #[inline]
     pub(super) fn clear_changed(&mut self) {
@@ -112,13 +106,23 @@ impl Pixel {
     }
 }
 
-/// The log response `u` of a new sample, the low-pass corner `omega` of the ramp to it
-/// (at the mean irradiance) and `decay = e^(−ω·Δt)` over the step ([`StepContext::prepare`]).
+/// A new sample cleaned ([`clean_irradiance`]) and its log response `u`, the low-pass
+/// corner `omega` of the ramp to it (at the mean irradiance) and `decay = e^(−ω·Δt)` over the
+/// step ([`StepContext::prepare`]).
 #[derive(Debug, Clone, Copy, Default)]
 pub(super) struct Ramp {
     u: f64,
     omega: f64,
     decay: f64,
+    irr: f32,
+}
+
+impl Ramp {
+    /// The sample as [`StepContext::step`] takes it: `(irradiance, log response)`.
+    #[inline]
+    pub(super) fn sample(&self) -> (f32, f64) {
+        (self.irr, self.u)
+    }
 }
 
 /// Everything one step of one pixel needs besides the pixel.
@@ -142,7 +146,8 @@ const TIE: f64 = 1e-9;
 
 impl StepContext<'_> {
     /// Advance one active pixel from its own time to `tb`; its input is constant up to `ta`
-    /// and, with `new`, ramps to the new irradiance sample `new` over `[ta, tb]`.
+    /// and, with `new = (irradiance, log response)` of a new sample ([`Ramp::sample`]), ramps
+    /// to it over `[ta, tb]`.
     ///
     /// Returns `None` when the pixel leaves the active set (it cannot fire while its input is
     /// constant), else the time before which it need not be visited again unless its input
@@ -154,12 +159,11 @@ impl StepContext<'_> {
         local: u32,
         ta: f64,
         tb: f64,
-        new: Option<f32>,
+        new: Option<(f32, f64)>,
     ) -> Option<f64> {
         let r = self.response;
-        if let Some(irr) = new {
-            let irr = clean_irradiance(irr);
-            let u = if irr != px.irr { r.log(irr) } else { px.u };
+        if let Some((irr, u)) = new {
+            let u = if irr != px.irr { u } else { px.u };
             if px.t < ta {
                 // A pixel frozen or asleep since `px.t`: its constant-input stretch first.
                 self.segment(px, local, ta, None);
@@ -215,6 +219,7 @@ impl StepContext<'_> {
             u,
             omega,
             decay: fastmath::exp(-(omega * dt)),
+            irr,
         }
     }
 
@@ -223,7 +228,7 @@ impl StepContext<'_> {
     /// level during the ramp over `[ta, tb]` nor can (input and output inside both levels,
     /// or no extremum inside the step). Same arithmetic as `segment` (the exact low-pass
     /// solution of [`Curve::low_pass`]), so the same result bit for bit. `ramp` is
-    /// [`StepContext::prepare`] of the sample `irr` for this pixel and step.
+    /// [`StepContext::prepare`] of the new sample for this pixel and step.
     ///
     /// Returns `None` if the pixel is not such a case (nothing changed; use `step`), else
     /// what `step` returns. Most updates of a recording are of this kind: the pixels a
@@ -234,7 +239,6 @@ impl StepContext<'_> {
         px: &mut Pixel,
         ta: f64,
         tb: f64,
-        irr: f32,
         ramp: &Ramp,
     ) -> Option<Option<f64>> {
         let omega = ramp.omega;
@@ -251,7 +255,7 @@ impl StepContext<'_> {
         if !(inside(lb) && (ua_in && ub_in || !curve.may_turn())) {
             return None;
         }
-        let irr_b = clean_irradiance(irr);
+        let irr_b = ramp.irr;
         px.l = lb;
         px.u = ub;
         px.irr = irr_b;
