@@ -44,7 +44,19 @@ enum Command {
     Bench(cmd::bench::BenchArgs),
 }
 
+/// End quietly when the reader of standard output goes away (`ebiv info REC | head -1`), as
+/// Unix tools do: Rust ignores SIGPIPE, so `println!` would panic on the closed pipe instead.
+fn die_quietly_on_closed_pipe() {
+    #[cfg(unix)]
+    // SAFETY: called first thing in `main`, before any other thread exists; SIG_DFL is a
+    // valid disposition for SIGPIPE.
+    unsafe {
+        libc::signal(libc::SIGPIPE, libc::SIG_DFL);
+    }
+}
+
 fn main() -> ExitCode {
+    die_quietly_on_closed_pipe();
     let cli = Cli::parse();
     let result = match &cli.command {
         Command::Demo(a) => cmd::demo::run(a),

@@ -335,3 +335,28 @@ fn init_writes_a_config_that_process_reads_and_checks() {
     let o = ebiv(&["process", "x.raw", "--peak-smoothing=-1"]);
     assert!(stderr(&o).contains("peak_smoothing_px"), "{}", stderr(&o));
 }
+
+/// A reader that closes the pipe early (`ebiv … | head -1`) ends the program quietly by
+/// SIGPIPE, as with other Unix tools, not with a panic message.
+#[cfg(unix)]
+#[test]
+fn a_closed_output_pipe_ends_quietly() {
+    use std::os::unix::io::FromRawFd;
+    use std::os::unix::process::ExitStatusExt;
+    let mut fds = [0; 2];
+    // SAFETY: `fds` has room for the two descriptors `pipe` writes.
+    assert_eq!(unsafe { libc::pipe(fds.as_mut_ptr()) }, 0);
+    // SAFETY: the read end is ours and closed once; the write end is handed over once.
+    let write_end = unsafe {
+        libc::close(fds[0]);
+        std::process::Stdio::from_raw_fd(fds[1])
+    };
+    let out = std::process::Command::new(env!("CARGO_BIN_EXE_ebiv"))
+        .args(["simulate", "--print-example", "paper-rate"])
+        .stdout(write_end)
+        .stderr(std::process::Stdio::piped())
+        .output()
+        .unwrap();
+    assert!(!stderr(&out).contains("panicked"), "{}", stderr(&out));
+    assert_eq!(out.status.signal(), Some(libc::SIGPIPE), "{:?}", out.status);
+}
