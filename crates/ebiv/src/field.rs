@@ -150,7 +150,9 @@ pub struct VectorField {
     pub status: Vec<Status>,
     /// Peak value of the correlation plane or objective.
     pub peak: Vec<f32>,
-    /// Ratio of the highest to the second-highest peak (NaN where not defined).
+    /// Ratio of the highest to the second-highest peak (NaN where not defined); for a vector
+    /// re-evaluated on a lower peak by multiple-peak validation, that peak's height over the
+    /// highest other peak (below 1 where a higher one lies elsewhere).
     pub peak_ratio: Vec<f32>,
     /// Events used by the estimator in the window.
     pub event_count: Vec<u32>,
@@ -316,7 +318,8 @@ pub struct FieldSeries {
     pub status: Vec<Status>,
     /// Peak value of the correlation plane or objective, indexed `[t][y][x]`.
     pub peak: Vec<f32>,
-    /// First-to-second peak ratio (NaN where not defined), indexed `[t][y][x]`.
+    /// First-to-second peak ratio (NaN where not defined; see [`VectorField::peak_ratio`]),
+    /// indexed `[t][y][x]`.
     pub peak_ratio: Vec<f32>,
     /// Events used per window, indexed `[t][y][x]`.
     pub event_count: Vec<u32>,

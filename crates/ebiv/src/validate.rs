@@ -70,6 +70,27 @@ impl ValidationParams {
     }
 }
 
+impl ValidationParams {
+    /// The first per-vector test a vector fails, in [`validate`]'s order: event count
+    /// ([`Status::FEW_EVENTS`]), peak ratio ([`Status::LOW_PEAK_RATIO`]; a NaN ratio never
+    /// fails), magnitude ([`Status::OUT_OF_RANGE`]); `None` if it passes them all.
+    pub fn vector_test(&self, event_count: u32, peak_ratio: f64, u: f64, v: f64) -> Option<Status> {
+        let speed = u.hypot(v);
+        if event_count < self.min_events {
+            Some(Status::FEW_EVENTS)
+        } else if peak_ratio < self.min_peak_ratio {
+            Some(Status::LOW_PEAK_RATIO)
+        } else if self
+            .max_velocity
+            .is_some_and(|m| speed.is_nan() || speed > m)
+        {
+            Some(Status::OUT_OF_RANGE)
+        } else {
+            None
+        }
+    }
+}
+
 /// What [`validate`] did: vectors flagged per test and valid vectors before and after.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub struct ValidationSummary {
@@ -111,7 +132,8 @@ impl ValidationSummary {
 /// On the border the 3 × 3 block is shifted inwards so that it still holds 8 neighbours
 /// (as the reference EBIV post-processing does); the truncated 5- or 3-point neighbourhood
 /// would flag edge vectors of any flow with a gradient normal to the edge. A vector with fewer
-/// than 3 valid neighbours is not median-tested. Neighbours flagged by the earlier tests of
+/// than 3 valid neighbours is not median-tested, nor is a vector with a non-finite
+/// component (which is no neighbour either). Neighbours flagged by the earlier tests of
 /// this call are left out; all residuals are computed before the median test flags any
 /// vector, so the result does not depend on the scan order. A corner vector is an
 /// extrapolation from one side: where the flow changes by more than about 2ε per node along
@@ -125,23 +147,17 @@ pub fn validate(field: &mut VectorField, params: &ValidationParams) -> Validatio
         if !field.status[i].is_valid() {
             continue;
         }
-        let ratio = field.peak_ratio[i] as f64;
-        let speed = (field.u[i] as f64).hypot(field.v[i] as f64);
-        let reason = if field.event_count[i] < params.min_events {
-            summary.few_events += 1;
-            Status::FEW_EVENTS
-        } else if ratio < params.min_peak_ratio {
-            summary.low_peak_ratio += 1;
-            Status::LOW_PEAK_RATIO
-        } else if params
-            .max_velocity
-            .is_some_and(|m| speed.is_nan() || speed > m)
-        {
-            summary.out_of_range += 1;
-            Status::OUT_OF_RANGE
-        } else {
+        let (u, v) = (field.u[i] as f64, field.v[i] as f64);
+        let Some(reason) =
+            params.vector_test(field.event_count[i], field.peak_ratio[i] as f64, u, v)
+        else {
             continue;
         };
+        match reason {
+            Status::FEW_EVENTS => summary.few_events += 1,
+            Status::LOW_PEAK_RATIO => summary.low_peak_ratio += 1,
+            _ => summary.out_of_range += 1,
+        }
         field.invalidate(i, reason);
     }
     let outliers = median_outliers(field, params.median_threshold, params.median_epsilon);

@@ -330,12 +330,13 @@ fn direct_is_slower(pairs: usize, valid_slices: usize, shape: PlaneShape) -> boo
     pairs as f64 * PAIR_NS > valid_slices as f64 * bins as f64 * FFT_NS_PER_BIN
 }
 
-/// Columns and rows of the correlation plane within `radius_px` of its centre `[rx, ry]`
-/// (the predicted displacement), at least 2 cells each way so that a peak inside can be
-/// fitted and told from one on the border.
+/// Columns and rows of the correlation plane to search for a peak within `radius_px` of the
+/// predicted displacement: the plane's centre `[rx, ry]` is the predicted displacement
+/// rounded to whole pixels (up to half a pixel off), and [`find_peak_within`] only takes
+/// maxima strictly inside the box, so the box reaches `⌈radius + ½⌉ + 1` cells each way.
 fn search_box(radius_px: f64, centre: [usize; 2]) -> [std::ops::Range<usize>; 2] {
     let half = if radius_px.is_finite() {
-        radius_px.abs().ceil().clamp(2.0, 1e6) as usize
+        (radius_px.abs() + 0.5).ceil().min(1e6) as usize + 1
     } else {
         usize::MAX / 4
     };
@@ -429,6 +430,10 @@ impl Estimator for SumOfCorrelation {
         result.v = dy / tau_ms;
         result.status = Status::VALID;
         result
+    }
+
+    fn finds_secondary_peaks(&self) -> bool {
+        true
     }
 
     fn parameters(&self) -> Vec<(String, String)> {

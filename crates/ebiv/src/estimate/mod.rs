@@ -25,8 +25,10 @@ pub struct Prediction {
     /// Affine motion around the window centre (PIV window deformation, for events).
     pub deformation: Option<Deformation>,
     /// Restrict the search to velocities within this distance (px/ms, per axis) of
-    /// `velocity`; `None`: the estimator's own range. Used to re-evaluate a window whose
-    /// highest peak failed validation on a lower peak near its neighbours' median.
+    /// `velocity`; `None` or a non-finite value: the estimator's own range. Honoured by the
+    /// estimators whose [`Estimator::finds_secondary_peaks`] is true, ignored by the others;
+    /// used to re-evaluate a window whose highest peak failed validation on a lower peak
+    /// near its neighbours' median.
     pub search_radius: Option<f64>,
 }
 
@@ -105,4 +107,11 @@ pub trait Estimator: Sync {
 
     /// The parameters as `(name, value with unit)` pairs, for output metadata.
     fn parameters(&self) -> Vec<(String, String)>;
+
+    /// True if [`Prediction::search_radius`] restricts the search to a lower peak whose
+    /// `peak` is comparable with that of the unrestricted estimate (same correlation plane),
+    /// so that multiple-peak validation can use this estimator.
+    fn finds_secondary_peaks(&self) -> bool {
+        false
+    }
 }

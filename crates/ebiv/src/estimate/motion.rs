@@ -346,18 +346,15 @@ impl Estimator for ContrastMaximization {
         };
         ev.t.extend(g.t.iter().map(|&t| ((t as f64 - shift) / 1000.0) as f32));
 
-        let predictor = predictor.filter(|p| p.velocity.iter().all(|v| v.is_finite()));
-        let mut range = self.search_range(dims, predictor.is_some());
-        if let Some(radius) = predictor.and_then(|p| p.search_radius) {
-            // At least two coarse steps, so that the grid search still has an interior.
-            range = range.min(radius.abs().max(2.0 * self.params.coarse_step));
-        }
+        let predictor = predictor
+            .map(|p| p.velocity)
+            .filter(|p| p[0].is_finite() && p[1].is_finite());
         let search = Search {
             events: &scratch.events,
             window: dims,
             extent,
-            centre: predictor.map_or([0.0, 0.0], |p| p.velocity),
-            range,
+            centre: predictor.unwrap_or([0.0, 0.0]),
+            range: self.search_range(dims, predictor.is_some()),
             params: &self.params,
             fine: &self.fine,
             coarse: &self.coarse,

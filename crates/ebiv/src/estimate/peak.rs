@@ -149,8 +149,26 @@ pub fn find_peak(
     if best == usize::MAX {
         return None;
     }
-    let (row, col) = (best / width, best % width);
+    Some(fitted_peak(
+        map,
+        [width, height],
+        [best / width, best % width],
+        fit,
+        exclusion,
+    ))
+}
+
+/// The peak at the integer maximum `[row, col]` of the map: sub-pixel fit where it is not on
+/// the map's border, and the second peak outside `exclusion` of it.
+fn fitted_peak(
+    map: &[f64],
+    [width, height]: [usize; 2],
+    [row, col]: [usize; 2],
+    fit: SubPixelFit,
+    exclusion: usize,
+) -> Peak {
     let at = |r: usize, c: usize| map[r * width + c];
+    let value = at(row, col);
     let on_edge_x = col == 0 || col + 1 == width;
     let on_edge_y = row == 0 || row + 1 == height;
     let mut x = col as f64;
@@ -179,7 +197,7 @@ pub fn find_peak(
         }
     }
     let second = second_peak(map, width, height, row, col, exclusion);
-    Some(Peak {
+    Peak {
         col,
         row,
         x,
@@ -187,13 +205,15 @@ pub fn find_peak(
         value,
         on_edge: on_edge_x || on_edge_y,
         second,
-    })
+    }
 }
 
-/// [`find_peak`] restricted to the box of columns `cols` and rows `rows` of the map (clamped
-/// to it): the highest cell of the box, fitted within it, in the coordinates of the whole
-/// map. `on_edge` means on the box's border (the restriction, not the peak, decided the
-/// result); `second` is the second peak within the box.
+/// The highest local maximum of the map (≥ its 8 neighbours, all finite) among the cells
+/// strictly inside the box of columns `cols` and rows `rows` (clamped to the map), fitted as
+/// by [`find_peak`]; `None` if the box holds no such maximum. A maximum that is only the
+/// flank of a higher peak outside the box is no local maximum, so the box never turns a
+/// slope into a peak. `second` is the highest other local maximum of the whole map (outside
+/// `exclusion`), so [`Peak::ratio`] is below 1 when a higher peak lies elsewhere.
 pub fn find_peak_within(
     map: &[f64],
     width: usize,
@@ -203,25 +223,30 @@ pub fn find_peak_within(
     cols: std::ops::Range<usize>,
     rows: std::ops::Range<usize>,
 ) -> Option<Peak> {
-    let cols = cols.start.min(width)..cols.end.min(width);
-    let rows = rows.start.min(height)..rows.end.min(height);
-    if map.len() < width * height || cols.is_empty() || rows.is_empty() {
+    if width == 0 || height == 0 || map.len() < width * height {
         return None;
     }
-    let boxed: Vec<f64> = rows
-        .clone()
-        .flat_map(|r| {
-            map[r * width + cols.start..r * width + cols.end]
-                .iter()
-                .copied()
-        })
-        .collect();
-    let mut peak = find_peak(&boxed, cols.len(), rows.len(), fit, exclusion)?;
-    peak.col += cols.start;
-    peak.row += rows.start;
-    peak.x += cols.start as f64;
-    peak.y += rows.start as f64;
-    Some(peak)
+    let inside = |r: std::ops::Range<usize>, n: usize| r.start + 1..r.end.min(n).saturating_sub(1);
+    let mut best: Option<[usize; 2]> = None;
+    let mut value = f64::NEG_INFINITY;
+    for row in inside(rows, height) {
+        for col in inside(cols.clone(), width) {
+            let v = map[row * width + col];
+            if v > value && is_local_max(map, [width, height], [row, col], v) {
+                value = v;
+                best = Some([row, col]);
+            }
+        }
+    }
+    Some(fitted_peak(map, [width, height], best?, fit, exclusion))
+}
+
+/// True if `v` (the finite value at `[row, col]`) is ≥ each of its up to 8 neighbours, none
+/// of them NaN.
+fn is_local_max(map: &[f64], [width, height]: [usize; 2], [row, col]: [usize; 2], v: f64) -> bool {
+    v.is_finite()
+        && (row.saturating_sub(1)..(row + 2).min(height))
+            .all(|r| (col.saturating_sub(1)..(col + 2).min(width)).all(|c| map[r * width + c] <= v))
 }
 
 /// Highest finite local maximum (≥ its 8 neighbours, none NaN) farther than `exclusion`
@@ -236,10 +261,6 @@ fn second_peak(
     col: usize,
     exclusion: usize,
 ) -> f64 {
-    let is_local_max = |r: usize, c: usize, v: f64| {
-        (r.saturating_sub(1)..(r + 2).min(height))
-            .all(|rr| (c.saturating_sub(1)..(c + 2).min(width)).all(|cc| map[rr * width + cc] <= v))
-    };
     let mut second = f64::NEG_INFINITY;
     let mut found = false;
     for (r, line) in map[..width * height].chunks_exact(width).enumerate() {
@@ -249,7 +270,7 @@ fn second_peak(
             if v > second
                 && v.is_finite()
                 && !(excluded_row && c.abs_diff(col) <= exclusion)
-                && is_local_max(r, c, v)
+                && is_local_max(map, [width, height], [r, c], v)
             {
                 second = v;
                 found = true;
@@ -379,12 +400,22 @@ mod tests {
             "{p:?}"
         );
         assert_eq!(p.value, m[12 * 16 + 12]);
-        // A box that cuts the high peak's flank: its maximum lies on the box border.
-        let p = find_peak_within(&m, 16, 16, fit, 2, 5..9, 0..8).unwrap();
-        assert!(p.on_edge && p.col == 5, "{p:?}");
-        // Boxes are clamped to the map; an empty box has no peak.
-        assert!(find_peak_within(&m, 16, 16, fit, 2, 10..99, 10..99).is_some());
+        // Its ratio compares it with the higher peak elsewhere in the map.
+        assert!(
+            (p.ratio() - m[12 * 16 + 12] / m[3 * 16 + 3]).abs() < 1e-12,
+            "{p:?}"
+        );
+        // The whole map as the box: the highest peak, ratio above 1.
+        let q = find_peak_within(&m, 16, 16, fit, 2, 0..16, 0..16).unwrap();
+        assert_eq!((q.col, q.row), (3, 3));
+        assert!(q.ratio() > 1.0);
+        // A box on the high peak's flank holds no local maximum; neither do boxes without an
+        // interior (2 cells wide) or outside the map.
+        assert!(find_peak_within(&m, 16, 16, fit, 2, 5..9, 0..8).is_none());
+        assert!(find_peak_within(&m, 16, 16, fit, 2, 2..4, 2..5).is_none());
         assert!(find_peak_within(&m, 16, 16, fit, 2, 20..30, 0..4).is_none());
+        // Boxes are clamped to the map.
+        assert!(find_peak_within(&m, 16, 16, fit, 2, 10..99, 10..99).is_some());
     }
 
     #[test]

@@ -137,7 +137,13 @@ pub fn write_field_netcdf(field: &FieldSeries, path: &Path) -> Result<()> {
             "first-to-second peak ratio".into(),
         ),
         ("peak_ratio", "units", "1".into()),
-        ("peak_ratio", "comment", "NaN where not defined".into()),
+        (
+            "peak_ratio",
+            "comment",
+            "NaN where not defined; below 1: valid vector re-evaluated on a lower peak \
+             (multiple-peak validation), its height over the highest peak"
+                .into(),
+        ),
         (
             "event_count",
             "long_name",

@@ -60,9 +60,9 @@ pub struct ProcessParams {
     /// repetitions is below this, px/ms.
     pub repeat_tolerance: f64,
     /// Re-evaluate the median-test outliers of a multi-pass run's last pass on a lower peak
-    /// near their neighbours' median (multiple-peak validation, [`secondary`]); accepted
-    /// vectors are valid with a `peak_ratio` of at most 1. Single passes are never
-    /// re-evaluated.
+    /// near their neighbours' median (multiple-peak validation, [`secondary`]; estimators
+    /// with [`Estimator::finds_secondary_peaks`], i.e. sum of correlation). Single passes
+    /// are never re-evaluated.
     pub secondary_peaks: bool,
 }
 
@@ -155,7 +155,8 @@ pub fn process_slab<E: Estimator>(
             predictor = Some(field);
             continue;
         }
-        if let Some(predictor) = predictor.as_ref().filter(|_| params.secondary_peaks) {
+        let reevaluate = params.secondary_peaks && estimator.finds_secondary_peaks();
+        if let Some(predictor) = predictor.as_ref().filter(|_| reevaluate) {
             let n = secondary::reevaluate_outliers(
                 estimator, slab, t0_us, grid, params, predictor, &mut field,
             );

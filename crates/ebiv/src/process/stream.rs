@@ -319,6 +319,10 @@ fn run_attributes<E: Estimator>(estimator: &E, params: &ProcessParams) -> Vec<(S
             "replace_final".to_string(),
             params.replace_final.to_string(),
         ),
+        (
+            "secondary_peaks".to_string(),
+            (params.secondary_peaks && estimator.finds_secondary_peaks()).to_string(),
+        ),
     ];
     a.extend(estimator.parameters());
     a
