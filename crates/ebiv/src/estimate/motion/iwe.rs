@@ -18,16 +18,33 @@ const LEVELS: usize = 256;
 /// Largest kernel footprint per axis, taps.
 pub(crate) const MAX_TAPS: usize = 9;
 
+/// Zero cells after the canvas, so that a footprint row may be written `lanes` wide.
+const ROW_PAD: usize = 16;
+
+/// Table row length for `taps` taps: a multiple of four lanes (one SSE register) above two
+/// taps, zero-padded, so that every row operation of the scatter and read-back passes is a
+/// whole number of vector operations. The padded lanes carry weight zero: they add zero to
+/// cells next to the footprint and read nothing from them.
+fn lanes_of(taps: usize) -> usize {
+    if taps <= 2 {
+        taps
+    } else {
+        taps.div_ceil(4) * 4
+    }
+}
+
 /// Splat weights per axis for every quantised sub-pixel position, normalised to sum 1.
 #[derive(Debug, Clone)]
 pub(crate) struct SplatTable {
     /// Taps per axis.
     pub taps: usize,
+    /// Stored row length, `taps` zero-padded to whole vector registers ([`lanes_of`]).
+    pub lanes: usize,
     /// Offset of the first tap from the base pixel `floor(x + shift)`.
     pub first: i64,
     /// Added before flooring: 0 for even footprints (bilinear), 0.5 for odd (centred).
     pub shift: f32,
-    /// `(LEVELS + 1) × taps` weights.
+    /// `(LEVELS + 1) × lanes` weights.
     pub weights: Vec<f32>,
     /// First and second derivatives of the weights with respect to the point's position
     /// (per cell and per cell²), same layout; zero for the bilinear tent, whose weights are
@@ -48,7 +65,8 @@ impl SplatTable {
             }
         };
         let first = -((taps as i64 - 1) / 2);
-        let size = (LEVELS + 1) * taps;
+        let lanes = lanes_of(taps);
+        let size = (LEVELS + 1) * lanes;
         let (mut weights, mut slope, mut curvature) =
             (vec![0f32; size], vec![0f32; size], vec![0f32; size]);
         for q in 0..=LEVELS {
@@ -76,7 +94,7 @@ impl SplatTable {
                 g2[..taps].iter().sum(),
             );
             for j in 0..taps {
-                let at = q * taps + j;
+                let at = q * lanes + j;
                 weights[at] = (g[j] / s0) as f32;
                 slope[at] = (g1[j] / s0 - g[j] * s1 / (s0 * s0)) as f32;
                 curvature[at] = (g2[j] / s0 - 2.0 * g1[j] * s1 / (s0 * s0) - g[j] * s2 / (s0 * s0)
@@ -85,6 +103,7 @@ impl SplatTable {
         }
         SplatTable {
             taps,
+            lanes,
             first,
             shift,
             weights,
@@ -208,21 +227,21 @@ pub(crate) fn evaluate(
     objective: Objective,
     work: &mut Workspace,
 ) -> f64 {
-    if work.canvas.len() < canvas.cells() {
-        work.canvas.resize(canvas.cells(), 0.0);
+    if work.canvas.len() < canvas.cells() + ROW_PAD {
+        work.canvas.resize(canvas.cells() + ROW_PAD, 0.0);
     }
     work.prepare(events, canvas, table);
     work.evaluations += 1;
     match table.taps {
-        2 => objective_of::<2>(events, velocity, canvas, table, objective, work),
-        3 => objective_of::<3>(events, velocity, canvas, table, objective, work),
-        5 => objective_of::<5>(events, velocity, canvas, table, objective, work),
-        7 => objective_of::<7>(events, velocity, canvas, table, objective, work),
-        _ => objective_of::<MAX_TAPS>(events, velocity, canvas, table, objective, work),
+        2 => objective_of::<2, 2>(events, velocity, canvas, table, objective, work),
+        3 => objective_of::<3, 4>(events, velocity, canvas, table, objective, work),
+        5 => objective_of::<5, 8>(events, velocity, canvas, table, objective, work),
+        7 => objective_of::<7, 8>(events, velocity, canvas, table, objective, work),
+        _ => objective_of::<MAX_TAPS, 12>(events, velocity, canvas, table, objective, work),
     }
 }
 
-fn objective_of<const K: usize>(
+fn objective_of<const K: usize, const P: usize>(
     events: &Events,
     velocity: [f64; 2],
     canvas: &Canvas,
@@ -230,7 +249,7 @@ fn objective_of<const K: usize>(
     objective: Objective,
     work: &mut Workspace,
 ) -> f64 {
-    let squares = scatter::<K>(events, velocity, canvas, table, work);
+    let squares = scatter::<K, P>(events, velocity, canvas, table, work);
     let cells = canvas.cells() as f64;
     let n = events.t.len() as f64;
     let w = canvas.width;
@@ -261,10 +280,11 @@ fn objective_of<const K: usize>(
     }
 }
 
-/// Splat every warped event with a `K` × `K` footprint and record each footprint's origin.
+/// Splat every warped event with a `K` × `K` footprint (rows written `P` ≥ `K` lanes wide,
+/// the extra lanes with weight zero) and record each footprint's origin.
 /// Returns Σ I², accumulated as the image grows: adding `w` to a cell holding `c` adds
 /// `w (2c + w)`.
-fn scatter<const K: usize>(
+fn scatter<const K: usize, const P: usize>(
     events: &Events,
     [u, v]: [f64; 2],
     canvas: &Canvas,
@@ -276,7 +296,8 @@ fn scatter<const K: usize>(
     let stride = canvas.width;
     let first = table.first as isize;
     let levels = LEVELS as f32;
-    let grid = &mut work.canvas[..canvas.cells()];
+    debug_assert_eq!(table.lanes, P);
+    let grid = &mut work.canvas[..canvas.cells() + (P - K)];
     let n = work.ct.len();
     work.footprint.resize(n, 0);
     let mut squares = 0f64;
@@ -290,23 +311,96 @@ fn scatter<const K: usize>(
         let qy = ((yc - by as f32) * levels + 0.5) as u32 as usize;
         let origin = (by as isize + first) as usize * stride + (bx as isize + first) as usize;
         *slot = origin as u32;
-        let wx: &[f32; K] = table.weights[qx * K..qx * K + K].try_into().unwrap();
-        let wy: &[f32; K] = table.weights[qy * K..qy * K + K].try_into().unwrap();
+        let wx = lane_row::<P>(&table.weights, qx);
+        let wy = lane_row::<P>(&table.weights, qy);
         // One partial sum per column: no serial chain of additions.
-        let mut gain = [0f32; K];
-        for (a, &wa) in wy.iter().enumerate() {
-            let row: &mut [f32; K] = (&mut grid[origin + a * stride..origin + a * stride + K])
+        let mut gain = [0f32; P];
+        for (a, &wa) in wy[..K].iter().enumerate() {
+            let row: &mut [f32; P] = (&mut grid[origin + a * stride..origin + a * stride + P])
                 .try_into()
                 .unwrap();
-            for b in 0..K {
-                let w = wa * wx[b];
-                gain[b] += w * (2.0 * row[b] + w);
-                row[b] += w;
-            }
+            splat_row(row, wa, &wx, &mut gain);
         }
         squares += gain.iter().sum::<f32>() as f64;
     }
     squares
+}
+
+/// Row `q` of a table stored `P` lanes wide, copied: the copy cannot alias the canvas, so
+/// the row operations below compile to vector instructions.
+#[inline(always)]
+fn lane_row<const P: usize>(table: &[f32], q: usize) -> [f32; P] {
+    table[q * P..q * P + P].try_into().unwrap()
+}
+
+/// `row += s · w`, accumulating the growth of Σ I² in `gain` (adding `x` to a cell holding
+/// `c` adds `x (2c + x)`). A function of its own so that the compiler knows `row` aliases
+/// nothing else.
+#[inline(always)]
+fn splat_row<const P: usize>(row: &mut [f32; P], s: f32, w: &[f32; P], gain: &mut [f32; P]) {
+    for b in 0..P {
+        let x = s * w[b];
+        gain[b] += x * (2.0 * row[b] + x);
+        row[b] += x;
+    }
+}
+
+/// `row += s · w` (see [`splat_row`]).
+#[inline(always)]
+fn add_row<const P: usize>(row: &mut [f32; P], s: f32, w: &[f32; P]) {
+    for b in 0..P {
+        row[b] += s * w[b];
+    }
+}
+
+/// `r += s · cells`.
+#[inline(always)]
+fn gather_row<const P: usize>(r: &mut [f32; P], s: f32, cells: &[f32; P]) {
+    for b in 0..P {
+        r[b] += s * cells[b];
+    }
+}
+
+/// `Σ r · w` in four independent lanes.
+#[inline(always)]
+fn dot<const P: usize>(r: &[f32; P], w: &[f32; P]) -> f32 {
+    let mut acc = [0f32; 4];
+    for (k, (&a, &b)) in r.iter().zip(w).enumerate() {
+        acc[k % 4] += a * b;
+    }
+    (acc[0] + acc[2]) + (acc[1] + acc[3])
+}
+
+/// `[Σ I², Σ J_u², Σ J_u J_v, Σ J_v²]` over one row segment of the three canvases, which are
+/// zeroed on the way: four lanes at a time, each array a parameter so that the compiler
+/// knows they do not overlap.
+fn sum_and_clear(g: &mut [f32], gu: &mut [f32], gv: &mut [f32]) -> [f32; 4] {
+    let (mut s, mut uu, mut uv, mut vv) = ([0f32; 4], [0f32; 4], [0f32; 4], [0f32; 4]);
+    let n = g.len().min(gu.len()).min(gv.len());
+    let whole = n - n % 4;
+    for k in (0..whole).step_by(4) {
+        let a: &mut [f32; 4] = (&mut g[k..k + 4]).try_into().unwrap();
+        let b: &mut [f32; 4] = (&mut gu[k..k + 4]).try_into().unwrap();
+        let c: &mut [f32; 4] = (&mut gv[k..k + 4]).try_into().unwrap();
+        for l in 0..4 {
+            s[l] += a[l] * a[l];
+            uu[l] += b[l] * b[l];
+            uv[l] += b[l] * c[l];
+            vv[l] += c[l] * c[l];
+        }
+        *a = [0.0; 4];
+        *b = [0.0; 4];
+        *c = [0.0; 4];
+    }
+    for k in whole..n {
+        s[0] += g[k] * g[k];
+        uu[0] += gu[k] * gu[k];
+        uv[0] += gu[k] * gv[k];
+        vv[0] += gv[k] * gv[k];
+        (g[k], gu[k], gv[k]) = (0.0, 0.0, 0.0);
+    }
+    let total = |x: [f32; 4]| (x[0] + x[2]) + (x[1] + x[3]);
+    [total(s), total(uu), total(uv), total(vv)]
 }
 
 /// Σ I² of the IWE and its gradient and Hessian in the velocity `(u, v)`.
@@ -336,21 +430,22 @@ pub(crate) fn derivatives(
 ) -> Derivatives {
     let cells = canvas.cells();
     for c in [&mut work.canvas, &mut work.ju, &mut work.jv] {
-        if c.len() < cells {
-            c.resize(cells, 0.0);
+        if c.len() < cells + ROW_PAD {
+            c.resize(cells + ROW_PAD, 0.0);
         }
     }
     work.prepare(events, canvas, table);
     work.evaluations += 1;
     match table.taps {
-        3 => derivatives_of::<3>(velocity, canvas, table, work),
-        5 => derivatives_of::<5>(velocity, canvas, table, work),
-        7 => derivatives_of::<7>(velocity, canvas, table, work),
-        _ => derivatives_of::<MAX_TAPS>(velocity, canvas, table, work),
+        3 => derivatives_of::<3, 4>(velocity, canvas, table, work),
+        5 => derivatives_of::<5, 8>(velocity, canvas, table, work),
+        7 => derivatives_of::<7, 8>(velocity, canvas, table, work),
+        _ => derivatives_of::<MAX_TAPS, 12>(velocity, canvas, table, work),
     }
 }
 
-fn derivatives_of<const K: usize>(
+/// [`derivatives`] for `K` taps stored `P` lanes wide.
+fn derivatives_of<const K: usize, const P: usize>(
     [u, v]: [f64; 2],
     canvas: &Canvas,
     table: &SplatTable,
@@ -360,8 +455,9 @@ fn derivatives_of<const K: usize>(
     let stride = canvas.width;
     let first = table.first as isize;
     let levels = LEVELS as f32;
-    let cells = canvas.cells();
-    let row = |tab: &[f32], q: usize| -> [f32; K] { tab[q * K..q * K + K].try_into().unwrap() };
+    debug_assert_eq!(table.lanes, P);
+    let cells = canvas.cells() + (P - K);
+    let row = |tab: &[f32], q: usize| -> [f32; P] { lane_row::<P>(tab, q) };
     let n = work.ct.len();
     work.footprint.resize(n, 0);
     work.quant.resize(n, 0);
@@ -396,14 +492,10 @@ fn derivatives_of<const K: usize>(
                 let at = origin + a * stride;
                 let (wa, sa) = (wy[a], -t * sy[a]);
                 let ta = -t * wy[a];
-                let g: &mut [f32; K] = (&mut grid[at..at + K]).try_into().unwrap();
-                let gu: &mut [f32; K] = (&mut ju[at..at + K]).try_into().unwrap();
-                let gv: &mut [f32; K] = (&mut jv[at..at + K]).try_into().unwrap();
-                for b in 0..K {
-                    g[b] += wa * wx[b];
-                    gu[b] += ta * sx[b];
-                    gv[b] += sa * wx[b];
-                }
+                // One array at a time: the compiler cannot tell the three canvases apart.
+                add_row((&mut grid[at..at + P]).try_into().unwrap(), wa, &wx);
+                add_row((&mut ju[at..at + P]).try_into().unwrap(), ta, &sx);
+                add_row((&mut jv[at..at + P]).try_into().unwrap(), sa, &wx);
             }
         }
     }
@@ -426,23 +518,14 @@ fn derivatives_of<const K: usize>(
             );
             // Column sums of I weighted by the row kernels w_y, w'_y, w''_y, then dot
             // products with the column kernels (independent lanes, no serial chain).
-            let (mut r0, mut r1, mut r2) = ([0f32; K], [0f32; K], [0f32; K]);
+            let (mut r0, mut r1, mut r2) = ([0f32; P], [0f32; P], [0f32; P]);
             for a in 0..K {
                 let at = origin as usize + a * stride;
-                let cells: &[f32; K] = (&grid[at..at + K]).try_into().unwrap();
-                for b in 0..K {
-                    r0[b] += wy[a] * cells[b];
-                    r1[b] += sy[a] * cells[b];
-                    r2[b] += cy[a] * cells[b];
-                }
+                let cells: &[f32; P] = (&grid[at..at + P]).try_into().unwrap();
+                gather_row(&mut r0, wy[a], cells);
+                gather_row(&mut r1, sy[a], cells);
+                gather_row(&mut r2, cy[a], cells);
             }
-            let dot = |r: &[f32; K], w: &[f32; K]| -> f32 {
-                let mut acc = [0f32; K];
-                for b in 0..K {
-                    acc[b] = r[b] * w[b];
-                }
-                acc.iter().sum()
-            };
             let (gu, gv) = (dot(&r0, &sx), dot(&r1, &wx));
             let (huu, huv, hvv) = (dot(&r0, &cx), dot(&r1, &sx), dot(&r2, &wx));
             let (t, t2) = (t as f64, (t * t) as f64);
@@ -463,26 +546,15 @@ fn derivatives_of<const K: usize>(
         let y1 = (span[3] as isize + first) as usize + K;
         for r in y0..y1 {
             let range = r * stride + x0..r * stride + x1;
-            let (g, gu, gv) = (
+            let sums = sum_and_clear(
                 &mut work.canvas[range.clone()],
                 &mut work.ju[range.clone()],
                 &mut work.jv[range],
             );
-            let (mut s, mut uu, mut uv, mut vv) = ([0f32; 4], [0f32; 4], [0f32; 4], [0f32; 4]);
-            for (k, ((&a, &b), &c)) in g.iter().zip(gu.iter()).zip(gv.iter()).enumerate() {
-                let l = k % 4;
-                s[l] += a * a;
-                uu[l] += b * b;
-                uv[l] += b * c;
-                vv[l] += c * c;
-            }
-            g.fill(0.0);
-            gu.fill(0.0);
-            gv.fill(0.0);
-            squares += s.iter().sum::<f32>() as f64;
-            j[0] += uu.iter().sum::<f32>() as f64;
-            j[1] += uv.iter().sum::<f32>() as f64;
-            j[2] += vv.iter().sum::<f32>() as f64;
+            squares += sums[0] as f64;
+            j[0] += sums[1] as f64;
+            j[1] += sums[2] as f64;
+            j[2] += sums[3] as f64;
         }
     }
     Derivatives {
@@ -554,7 +626,7 @@ mod tests {
         let mut work = Workspace::default();
         let ev = one_event(3.25, 5.75);
         work.canvas.resize(canvas.cells(), 0.0);
-        scatter::<2>(&ev, [0.0, 0.0], &canvas, &table, &mut work);
+        scatter::<2, 2>(&ev, [0.0, 0.0], &canvas, &table, &mut work);
         let at = |x: f32, y: f32| {
             let c = (
                 (x - canvas.origin_x) as usize,
@@ -572,7 +644,7 @@ mod tests {
     fn tables_are_normalised_and_scoring_clears_the_canvas() {
         for splat in [Splat::Bilinear, Splat::Gaussian { sigma: 0.8 }] {
             let table = SplatTable::new(splat);
-            for row in table.weights.chunks(table.taps) {
+            for row in table.weights.chunks(table.lanes) {
                 assert!((row.iter().sum::<f32>() - 1.0).abs() < 1e-5);
             }
             // Events pushed to the extreme warps stay on the canvas: the total is kept.
@@ -587,7 +659,7 @@ mod tests {
                 let total = evaluate(&ev, vel, &canvas, &table, Objective::Isoa, &mut work);
                 assert_eq!(total, 0.0);
                 work.canvas.iter().for_each(|&c| assert_eq!(c, 0.0));
-                scatter::<2>(
+                scatter::<2, 2>(
                     &ev,
                     vel,
                     &canvas,

@@ -45,6 +45,31 @@ pub(crate) struct Vote {
     pub ratio: f64,
 }
 
+/// `out += k · add`, element by element.
+fn add_scaled(out: &mut [u32], add: &[u32], k: u32) {
+    for (o, &a) in out.iter_mut().zip(add) {
+        *o += k * a;
+    }
+}
+
+/// `floor(a)` for `a` in `[−1, limit]` (`limit` < 2²¹), as `u32` with −1 wrapped to
+/// `u32::MAX`; NaN and values outside are clamped to that range first.
+///
+/// Rounding by adding 1.5 · 2²³ (the float's mantissa then holds the integer part) instead of
+/// a saturating `as` cast, which the compiler cannot vectorise: the pair loop's cost is
+/// dominated by the conversion otherwise. `round(a − 0.5)` is the floor except where `a` is
+/// an exact integer and rounding ties to even, a measure-zero set for pair velocities.
+#[inline(always)]
+fn cell_index(a: f32, limit: f32) -> u32 {
+    const MAGIC: f32 = 12_582_912.0;
+    // Comparisons rather than `f32::max`/`min`, whose NaN rules cost a blend per lane: NaN
+    // becomes −1 (outside), as does anything below.
+    let a = a - 0.5;
+    let a = if a > -1.0 { a } else { -1.0 };
+    let a = if a < limit { a } else { limit };
+    (a + MAGIC).to_bits().wrapping_sub(MAGIC.to_bits())
+}
+
 /// Histogram of the pair velocities of `events` in cells of `cell` px/ms over
 /// `centre ± half` (each axis), smoothed with a binomial 3 × 3 kernel; its local maxima of
 /// at least half the highest, best first and fitted to a fraction of a cell, become
@@ -113,9 +138,8 @@ pub(crate) fn vote(
             .zip(&st[later..]);
         for (((cellref, &x), &y), &t) in pairs {
             let k = inv / (t - et);
-            // `max` maps NaN to −1: every value is finite and in range for the casts.
-            let cx = ((x - ex) * k + offset[0]).max(-1.0).min(limit) as i32 as u32;
-            let cy = ((y - ey) * k + offset[1]).max(-1.0).min(limit) as i32 as u32;
+            let cx = cell_index((x - ex) * k + offset[0], limit);
+            let cy = cell_index((y - ey) * k + offset[1], limit);
             let inside = (cx < side as u32) & (cy < side as u32);
             *cellref = if inside {
                 cy.wrapping_mul(side as u32).wrapping_add(cx)
@@ -123,44 +147,57 @@ pub(crate) fn vote(
                 trash
             };
         }
+        let counts = &mut s.counts[..];
         for &c in cells.iter() {
-            s.counts[c as usize] += 1;
+            counts[c as usize] += 1;
         }
     }
-    // Separable [1 2 1] smoothing (zero outside).
+    // Separable [1 2 1] smoothing (zero outside) into a map with a border of zeros, so that
+    // neither pass nor the search of maxima needs bounds tests (vectorised row sums).
+    let width = side + 2;
     s.rows.clear();
-    s.rows.resize(side * side, 0);
-    s.smooth.clear();
-    s.smooth.resize(side * side, 0);
+    s.rows.resize(width * side, 0);
     for j in 0..side {
         let c = &s.counts[j * side..(j + 1) * side];
-        let r = &mut s.rows[j * side..(j + 1) * side];
+        let r = &mut s.rows[j * width..(j + 1) * width];
+        r[1..side + 1].copy_from_slice(c);
+        let mut left = 0;
         for i in 0..side {
-            let left = if i > 0 { c[i - 1] } else { 0 };
+            let centre = r[i + 1];
             let right = if i + 1 < side { c[i + 1] } else { 0 };
-            r[i] = left + 2 * c[i] + right;
+            r[i + 1] = left + 2 * centre + right;
+            left = centre;
         }
     }
+    s.smooth.clear();
+    s.smooth.resize(width * width, 0);
     for j in 0..side {
-        for i in 0..side {
-            let up = if j > 0 { s.rows[(j - 1) * side + i] } else { 0 };
-            let down = if j + 1 < side {
-                s.rows[(j + 1) * side + i]
-            } else {
-                0
-            };
-            s.smooth[j * side + i] = up + 2 * s.rows[j * side + i] + down;
+        let here = &s.rows[j * width..(j + 1) * width];
+        let out = &mut s.smooth[(j + 1) * width..(j + 2) * width];
+        add_scaled(out, here, 2);
+        if j > 0 {
+            add_scaled(out, &s.rows[(j - 1) * width..j * width], 1);
+        }
+        if j + 1 < side {
+            add_scaled(out, &s.rows[(j + 1) * width..(j + 2) * width], 1);
         }
     }
     // The highest local maxima (ties: the first in scan order), best first. A cell is
-    // checked against its neighbours only if it would enter the list.
+    // checked against its neighbours only if it would enter the list; the zero border never
+    // disqualifies a cell above the map's minimum.
     let map = &s.smooth;
-    let min = *map.iter().min()?;
+    let at = |i: usize, j: usize| (j + 1) * width + i + 1;
+    let min = (0..side)
+        .map(|j| s.smooth[at(0, j)..at(0, j) + side].iter().copied().min())
+        .min()
+        .flatten()?;
     let maxima = &mut s.maxima;
     maxima.clear();
+    let w = width;
     for j in 0..side {
         for i in 0..side {
-            let v = map[j * side + i];
+            let p = at(i, j);
+            let v = map[p];
             let floor = if maxima.len() == MAX_STARTS {
                 maxima[MAX_STARTS - 1].0 + min
             } else {
@@ -169,33 +206,15 @@ pub(crate) fn vote(
             if v <= floor {
                 continue;
             }
-            let mut local = true;
-            for (dj, di) in [
-                (-1, -1),
-                (-1, 0),
-                (-1, 1),
-                (0, -1),
-                (0, 1),
-                (1, -1),
-                (1, 0),
-                (1, 1),
-            ] {
-                let (jj, ii) = (j as i64 + dj, i as i64 + di);
-                if jj < 0 || ii < 0 || jj >= side as i64 || ii >= side as i64 {
-                    continue;
-                }
-                let w = map[jj as usize * side + ii as usize];
-                // Strictly higher neighbours, or equal ones earlier in scan order.
-                if w > v || (w == v && (dj, di) < (0, 0)) {
-                    local = false;
-                    break;
-                }
+            // Strictly higher neighbours, or equal ones earlier in scan order.
+            let earlier = [p - w - 1, p - w, p - w + 1, p - 1];
+            let later = [p + 1, p + w - 1, p + w, p + w + 1];
+            if earlier.iter().any(|&q| map[q] >= v) || later.iter().any(|&q| map[q] > v) {
+                continue;
             }
-            if local {
-                let at = maxima.partition_point(|m| m.0 >= v - min);
-                maxima.insert(at, (v - min, j * side + i));
-                maxima.truncate(MAX_STARTS);
-            }
+            let rank = maxima.partition_point(|m| m.0 >= v - min);
+            maxima.insert(rank, (v - min, j * side + i));
+            maxima.truncate(MAX_STARTS);
         }
     }
     if maxima.is_empty() {
@@ -203,12 +222,12 @@ pub(crate) fn vote(
     }
     let best = maxima[0].0 as f64;
     let ratio = maxima.get(1).map_or(f64::NAN, |m| best / m.0.max(1) as f64);
-    for &(v, at) in maxima.iter().take(MAX_STARTS) {
+    for &(v, index) in maxima.iter().take(MAX_STARTS) {
         if (v as f64) < START_FRACTION * best {
             break;
         }
-        let (i, j) = (at % side, at / side);
-        let value = |ii: usize, jj: usize| map[jj * side + ii] as f64;
+        let (i, j) = (index % side, index / side);
+        let value = |ii: usize, jj: usize| map[at(ii, jj)] as f64;
         let fit = |a: f64, b: f64, c: f64| {
             let d = 2.0 * a - 4.0 * b + 2.0 * c;
             if d < 0.0 {
