@@ -27,13 +27,13 @@ mod voxels;
 
 use serde::{Deserialize, Serialize};
 
-use super::peak::{find_peak, find_peak_within, SubPixelFit};
+use super::peak::{argmax, find_peak_within, peak_at, SubPixelFit};
 use super::{Estimator, Prediction, WindowEstimate};
 use crate::error::{Error, Result};
 use crate::field::Status;
 use crate::grid::Window;
 use crate::volume::{Deformation, Slab, WindowEvents};
-use fit::refine_smoothed;
+use fit::{refine_with_kernel, SmoothingKernel};
 use fourier::Fourier;
 use voxels::{slice_statistics, Overlap, PlaneShape, SliceStats, Voxeliser, Voxels};
 
@@ -196,13 +196,16 @@ const EXCLUSION_PX: usize = 2;
 #[derive(Debug, Clone, PartialEq)]
 pub struct SumOfCorrelation {
     params: CorrSumParams,
+    /// The peak smoothing kernel of `params.peak_smoothing_px`.
+    smoothing: SmoothingKernel,
 }
 
 impl SumOfCorrelation {
     /// An estimator with validated parameters.
     pub fn new(params: CorrSumParams) -> Result<Self> {
         params.validate()?;
-        Ok(SumOfCorrelation { params })
+        let smoothing = SmoothingKernel::new(params.peak_smoothing_px);
+        Ok(SumOfCorrelation { params, smoothing })
     }
 
     /// The parameters.
@@ -238,7 +241,8 @@ impl SumOfCorrelation {
 
     /// Compute the normalised, summed correlation plane of `window`'s events around `t0_us`
     /// with the integer window offset `[s1, s2]` per axis (S1 window moved by `−s1`, S2 by
-    /// `+s2`) into `scratch.plane`, and return its status before peak search.
+    /// `+s2`) into `scratch.plane`, and return the event count and the index of the plane's
+    /// maximum (`None`: no value above −∞), or the window's invalid estimate.
     fn correlation_plane(
         &self,
         slab: &Slab,
@@ -247,7 +251,7 @@ impl SumOfCorrelation {
         offsets: [[i64; 2]; 2],
         predictor: Option<&Prediction>,
         scratch: &mut CorrSumScratch,
-    ) -> std::result::Result<u32, WindowEstimate> {
+    ) -> std::result::Result<(u32, Option<usize>), WindowEstimate> {
         let p = &self.params;
         let s1_start = t0_us - self.half_extent_us();
         let s2_start = s1_start + p.tau_us;
@@ -300,9 +304,10 @@ impl SumOfCorrelation {
                 direct_is_slower(pairs, scratch.stats.len(), shape)
             }
         };
-        if use_fft {
+        let best = if use_fft {
             let fourier = scratch.fourier.get_or_insert_with(|| Fourier::new(shape));
             fourier.correlate(a, b, &scratch.stats, &scratch.overlap, &mut scratch.plane);
+            argmax(&scratch.plane)
         } else {
             direct::correlate(
                 a,
@@ -311,10 +316,10 @@ impl SumOfCorrelation {
                 shape,
                 &scratch.overlap,
                 &mut scratch.plane,
-                &mut scratch.diff,
-            );
-        }
-        Ok(events)
+                &mut scratch.accumulators,
+            )
+        };
+        Ok((events, best))
     }
 }
 
@@ -395,8 +400,8 @@ impl Estimator for SumOfCorrelation {
             window_offsets(p.velocity.map(|v| v * tau_ms))
         });
         let plane = self.correlation_plane(slab, window, t0_us, offsets, predictor, scratch);
-        let events = match plane {
-            Ok(n) => n,
+        let (events, best) = match plane {
+            Ok(found) => found,
             Err(invalid) => return invalid,
         };
         let shape = scratch.shape;
@@ -407,7 +412,7 @@ impl Estimator for SumOfCorrelation {
                 let [cols, rows] = search_box(radius * tau_ms, [shape.rx, shape.ry]);
                 find_peak_within(&scratch.plane, pw, ph, fit, EXCLUSION_PX, cols, rows)
             }
-            None => find_peak(&scratch.plane, pw, ph, fit, EXCLUSION_PX),
+            None => best.and_then(|i| peak_at(&scratch.plane, pw, ph, i, fit, EXCLUSION_PX)),
         };
         let Some(peak) = peak else {
             return WindowEstimate::invalid(Status::NO_PEAK, events);
@@ -422,8 +427,7 @@ impl Estimator for SumOfCorrelation {
             result.status = Status::OUT_OF_RANGE;
             return result;
         }
-        let sigma = self.params.peak_smoothing_px;
-        let [px, py] = refine_smoothed(&scratch.plane, [pw, ph], &peak, sigma, self.params.fit);
+        let [px, py] = refine_with_kernel(&scratch.plane, [pw, ph], &peak, &self.smoothing, fit);
         let dx = (offsets[0][0] + offsets[1][0]) as f64 + px - shape.rx as f64;
         let dy = (offsets[0][1] + offsets[1][1]) as f64 + py - shape.ry as f64;
         result.u = dx / tau_ms;
@@ -486,7 +490,7 @@ pub struct CorrSumScratch {
     voxels: [Voxels; 2],
     stats: Vec<SliceStats>,
     plane: Vec<f64>,
-    diff: Vec<f64>,
+    accumulators: direct::Accumulators,
     fourier: Option<Fourier>,
 }
 
@@ -508,7 +512,7 @@ impl CorrSumScratch {
             voxels: Default::default(),
             stats: Vec::with_capacity(slices as usize),
             plane: vec![0.0; shape.plane_width() * shape.plane_height()],
-            diff: vec![0.0; (shape.plane_width() + 1) * (shape.plane_height() + 1)],
+            accumulators: direct::Accumulators::new(shape),
             fourier: None,
         }
     }

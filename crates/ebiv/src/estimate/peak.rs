@@ -139,14 +139,35 @@ pub fn find_peak(
     if width == 0 || height == 0 || map.len() < width * height {
         return None;
     }
-    let (mut best, mut value) = (usize::MAX, f64::NEG_INFINITY);
-    for (i, &m) in map[..width * height].iter().enumerate() {
+    let best = argmax(&map[..width * height])?;
+    peak_at(map, width, height, best, fit, exclusion)
+}
+
+/// Index of the first maximum of `map` (the first value greater than all before it), `None`
+/// if no value exceeds −∞ (empty, or all NaN / −∞).
+pub fn argmax(map: &[f64]) -> Option<usize> {
+    let (mut best, mut value) = (None, f64::NEG_INFINITY);
+    for (i, &m) in map.iter().enumerate() {
         if m > value {
             value = m;
-            best = i;
+            best = Some(i);
         }
     }
-    if best == usize::MAX {
+    best
+}
+
+/// [`find_peak`] for a map whose maximum is already known to be at index `best` (as
+/// [`argmax`] finds it, e.g. tracked while the map was computed). `None` if `best` lies
+/// outside the map.
+pub fn peak_at(
+    map: &[f64],
+    width: usize,
+    height: usize,
+    best: usize,
+    fit: SubPixelFit,
+    exclusion: usize,
+) -> Option<Peak> {
+    if width == 0 || height == 0 || map.len() < width * height || best >= width * height {
         return None;
     }
     Some(fitted_peak(
@@ -437,11 +458,19 @@ mod tests {
                     k => (k % 9) as f64 - 3.0 + if case % 2 == 0 { 0.0 } else { 0.1 * k as f64 },
                 })
                 .collect();
-            for (row, col) in [(0, 0), (h / 2, w / 2), (h - 1, w - 1)] {
-                for exclusion in [0, 1, 2] {
-                    let fast = second_peak(&plane, w, h, row, col, exclusion);
-                    let slow = second_peak_reference(&plane, w, h, row, col, exclusion);
-                    assert_eq!(format!("{fast:?}"), format!("{slow:?}"), "case {case}");
+            // Also without NaN and with ties.
+            let clean: Vec<f64> = plane
+                .iter()
+                .map(|&v| if v.is_nan() { 0.0 } else { v })
+                .collect();
+            let rounded: Vec<f64> = clean.iter().map(|&v| v.round()).collect();
+            for map in [&plane, &clean, &rounded] {
+                for (row, col) in [(0, 0), (h / 2, w / 2), (h - 1, w - 1)] {
+                    for exclusion in [0, 1, 2] {
+                        let fast = second_peak(map, w, h, row, col, exclusion);
+                        let slow = second_peak_reference(map, w, h, row, col, exclusion);
+                        assert_eq!(format!("{fast:?}"), format!("{slow:?}"), "case {case}");
+                    }
                 }
             }
         }

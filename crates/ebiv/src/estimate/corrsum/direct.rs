@@ -13,8 +13,32 @@
 
 use super::voxels::{Overlap, PlaneShape, SliceStats, SubVolume};
 
-/// Fill `plane` with the normalised correlation of the slices in `stats`; `diff` is
-/// `(pw + 1) × (ph + 1)` working memory.
+/// Working memory of [`correlate`] for one plane shape. Both arrays are all zero between
+/// calls (the final pass clears what it reads), so no window pays for clearing them.
+#[derive(Debug, Clone)]
+pub(super) struct Accumulators {
+    /// Σ over voxel pairs of `a·b(·+Δ)`, one cell per lag.
+    pairs: Vec<f64>,
+    /// 2-D difference array of the rectangle corrections, `(pw + 1) × (ph + 1)`.
+    diff: Vec<f64>,
+    /// Running column sums of `diff` during the final pass, `pw`.
+    column: Vec<f64>,
+}
+
+impl Accumulators {
+    pub fn new(shape: PlaneShape) -> Self {
+        let (pw, ph) = (shape.plane_width(), shape.plane_height());
+        Accumulators {
+            pairs: vec![0.0; pw * ph],
+            diff: vec![0.0; (pw + 1) * (ph + 1)],
+            column: vec![0.0; pw],
+        }
+    }
+}
+
+/// Fill `plane` with the normalised correlation of the slices in `stats` and return the
+/// index of its first maximum (as [`crate::estimate::peak::argmax`] finds it), `None` if no
+/// value exceeds −∞.
 pub(super) fn correlate(
     a: SubVolume<'_>,
     b: SubVolume<'_>,
@@ -22,22 +46,25 @@ pub(super) fn correlate(
     shape: PlaneShape,
     overlap: &Overlap,
     plane: &mut [f64],
-    diff: &mut [f64],
-) {
+    acc: &mut Accumulators,
+) -> Option<usize> {
     let (pw, ph) = (shape.plane_width(), shape.plane_height());
     let dw = pw + 1;
-    plane.fill(0.0);
-    diff.fill(0.0);
+    let Accumulators {
+        pairs,
+        diff,
+        column,
+    } = acc;
+    if pairs.len() != pw * ph || diff.len() != dw * (ph + 1) || column.len() != pw {
+        *acc = Accumulators::new(shape);
+        return correlate(a, b, stats, shape, overlap, plane, acc);
+    }
     let (rx, ry) = (shape.rx as isize, shape.ry as isize);
     let (w, h) = (shape.w as isize, shape.h as isize);
     let mut constant = 0.0;
+    let limits = [2 * rx, 2 * ry];
     let mut add_rect = |x0: isize, x1: isize, y0: isize, y1: isize, c: f64| {
-        let (x0, x1) = (x0.max(0) as usize, x1.min(2 * rx) as usize + 1);
-        let (y0, y1) = (y0.max(0) as usize, y1.min(2 * ry) as usize + 1);
-        diff[y0 * dw + x0] += c;
-        diff[y0 * dw + x1] -= c;
-        diff[y1 * dw + x0] -= c;
-        diff[y1 * dw + x1] += c;
+        add_rectangle(diff, dw, limits, [x0, x1, y0, y1], c)
     };
     let (ax, ay, av) = (&a.vox.x, &a.vox.y, &a.vox.v);
     for s in stats {
@@ -56,7 +83,7 @@ pub(super) fn correlate(
                 let ix = (qx as isize - xa) as usize;
                 if ix < pw {
                     let iy = (qy as isize - ya) as usize;
-                    plane[iy * pw + ix] += wa * qv;
+                    pairs[iy * pw + ix] += wa * qv;
                 }
             }
             // Σ_O a: voxel p counts for the lags with p + Δ inside the window.
@@ -72,26 +99,49 @@ pub(super) fn correlate(
         }
         constant += s.weight * s.mean_a * s.mean_b;
     }
-    // One pass: prefix sums turn the difference array into the per-lag values, the analytic
-    // term `n(Δ) ā b̄` is added and the lag is normalised as by [`Overlap::normalise`].
+    // One pass: prefix sums turn the difference array into the per-lag values (row prefix
+    // `run`, accumulated down the columns in `column`), the analytic term `n(Δ) ā b̄` is added,
+    // the lag is normalised as by [`Overlap::normalise`] and the maximum is tracked. The
+    // accumulators are cleared as they are read.
     let per_slice = 1.0 / stats.len().max(1) as f64;
+    column.fill(0.0);
+    let (mut best, mut best_value) = (None, f64::NEG_INFINITY);
     for iy in 0..ph {
         let mut run = 0.0;
-        let (above, row) = diff.split_at_mut(iy * dw);
-        let above = if iy > 0 {
-            &above[(iy - 1) * dw..iy * dw]
-        } else {
-            &[][..]
-        };
         let lags = iy * pw..(iy + 1) * pw;
         let cells = plane[lags.clone()]
             .iter_mut()
+            .zip(&mut pairs[lags.clone()])
+            .zip(&mut diff[iy * dw..iy * dw + pw])
+            .zip(column.iter_mut())
             .zip(&overlap.area[lags.clone()])
             .zip(&overlap.inverse[lags]);
-        for (ix, ((cell, &area), &inverse)) in cells.enumerate() {
-            run += row[ix];
-            row[ix] = run + above.get(ix).copied().unwrap_or(0.0);
-            *cell = (*cell + (row[ix] + area * constant)) * (inverse * per_slice);
+        for (ix, (((((cell, pair), d), col), &area), &inverse)) in cells.enumerate() {
+            run += std::mem::take(d);
+            *col += run;
+            let value = (std::mem::take(pair) + (*col + area * constant)) * (inverse * per_slice);
+            *cell = value;
+            if value > best_value {
+                best_value = value;
+                best = Some(iy * pw + ix);
+            }
         }
+        // The corrections' closing column lies outside the plane.
+        diff[iy * dw + pw] = 0.0;
     }
+    diff[ph * dw..].fill(0.0);
+    best
+}
+
+/// Add `c` to the lags `[x0, x1] × [y0, y1]` (clipped to `[0, limits]`) of the difference
+/// array `diff` of row length `dw`: four corner updates.
+#[inline(always)]
+fn add_rectangle(diff: &mut [f64], dw: usize, limits: [isize; 2], r: [isize; 4], c: f64) {
+    let [x0, x1, y0, y1] = r;
+    let (x0, x1) = (x0.max(0) as usize, x1.min(limits[0]) as usize + 1);
+    let (y0, y1) = (y0.max(0) as usize, y1.min(limits[1]) as usize + 1);
+    diff[y0 * dw + x0] += c;
+    diff[y0 * dw + x1] -= c;
+    diff[y1 * dw + x0] -= c;
+    diff[y1 * dw + x1] += c;
 }

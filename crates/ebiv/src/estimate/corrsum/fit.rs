@@ -27,12 +27,12 @@ pub(super) fn refine_tilted(
             points += 1;
             let (x, y) = (c as f64 - 1.0, r as f64 - 1.0);
             let basis = [1.0, x, y, x * x, y * y, x * y];
-            let w = v * v;
+            let (w, ln_v) = (v * v, v.ln());
             for i in 0..6 {
                 for j in 0..6 {
                     m[i][j] += w * basis[i] * basis[j];
                 }
-                m[i][6] += w * basis[i] * v.ln();
+                m[i][6] += w * basis[i] * ln_v;
             }
         }
     }
@@ -88,22 +88,35 @@ fn solve6(mut m: [[f64; 7]; 6]) -> Option<[f64; 6]> {
 /// recovers the histogram's centre, as a particle image diameter of 2–3 px does in PIV
 /// (Westerweel 1997, Meas. Sci. Technol. 8:1379). The smoothed values are computed only
 /// around the integer maximum; the peak height and ratio stay those of the plane.
+#[cfg(test)]
 pub(super) fn refine_smoothed(
     plane: &[f64],
-    [width, height]: [usize; 2],
+    size: [usize; 2],
     peak: &Peak,
     sigma: f64,
     fit: SubPixelFit,
 ) -> [f64; 2] {
+    refine_with_kernel(plane, size, peak, &SmoothingKernel::new(sigma), fit)
+}
+
+/// [`refine_smoothed`] with the kernel of σ tabulated once (per estimator, not per window).
+pub(super) fn refine_with_kernel(
+    plane: &[f64],
+    [width, height]: [usize; 2],
+    peak: &Peak,
+    kernel: &SmoothingKernel,
+    fit: SubPixelFit,
+) -> [f64; 2] {
     let (w, h) = (width as isize, height as isize);
     let (r0, c0) = (peak.row as isize, peak.col as isize);
+    let sigma = kernel.sigma;
     // Near the plane's border the kernel would be one-sided and pull the fit toward the
     // border: no smoothing there (nor for σ too small to matter, or on small planes).
     let room = r0.min(c0).min(h - 1 - r0).min(w - 1 - c0);
     if sigma.is_nan() || sigma < MIN_SIGMA || peak.on_edge || room < reach(sigma) + BLOCK {
         return refine_tilted(plane, width, peak, fit);
     }
-    let smoothed = Smoothed::around(plane, [w, h], [r0, c0], sigma);
+    let smoothed = Smoothed::around(plane, [w, h], [r0, c0], kernel);
     // The smoothed maximum lies at or next to the plane's (not on the plane's border).
     let mut best = (r0, c0, smoothed.at(r0, c0));
     for r in (r0 - 1).max(1)..=(r0 + 1).min(h - 2) {
@@ -146,6 +159,28 @@ fn reach(sigma: f64) -> isize {
     ((2.0 * sigma).ceil() as usize).min(MAX_REACH) as isize
 }
 
+/// The taps of the truncated Gaussian (±2σ) that smooths the plane near its peak.
+#[derive(Debug, Clone, PartialEq)]
+pub(super) struct SmoothingKernel {
+    sigma: f64,
+    taps: [f64; 2 * MAX_REACH + 1],
+}
+
+impl SmoothingKernel {
+    /// The kernel of standard deviation `sigma` px (no taps where σ is too small to smooth).
+    pub fn new(sigma: f64) -> Self {
+        let mut taps = [0.0; 2 * MAX_REACH + 1];
+        if !sigma.is_nan() && sigma >= MIN_SIGMA {
+            let reach = reach(sigma) as usize;
+            for (k, t) in taps.iter_mut().take(2 * reach + 1).enumerate() {
+                let d = k as f64 - reach as f64;
+                *t = (-d * d / (2.0 * sigma * sigma)).exp();
+            }
+        }
+        SmoothingKernel { sigma, taps }
+    }
+}
+
 /// The plane smoothed by a truncated Gaussian (±2σ) on the 5 × 5 block around a point,
 /// renormalised where the kernel leaves the plane or meets non-finite values: a separable
 /// pass along rows, then along columns, carrying values and weights.
@@ -155,18 +190,37 @@ struct Smoothed {
 }
 
 impl Smoothed {
-    fn around(plane: &[f64], [w, h]: [isize; 2], [r0, c0]: [isize; 2], sigma: f64) -> Self {
-        let reach = reach(sigma) as usize;
-        let mut taps = [0.0; 2 * MAX_REACH + 1];
-        for (k, t) in taps.iter_mut().take(2 * reach + 1).enumerate() {
-            let d = k as f64 - reach as f64;
-            *t = (-d * d / (2.0 * sigma * sigma)).exp();
-        }
-        let taps = &taps[..2 * reach + 1];
+    fn around(
+        plane: &[f64],
+        [w, h]: [isize; 2],
+        [r0, c0]: [isize; 2],
+        kernel: &SmoothingKernel,
+    ) -> Self {
+        let reach = reach(kernel.sigma) as usize;
+        let taps = &kernel.taps[..2 * reach + 1];
         let reach = reach as isize;
         // Row pass: for each row of the block's reach, Σ t v and Σ t at the block's columns.
         let rows = (2 * (BLOCK + reach) + 1) as usize;
         let mut across = [[(0.0, 0.0); 5]; 2 * (BLOCK as usize + MAX_REACH) + 1];
+        // Inside the plane and all finite (the usual case): the same sums without tests.
+        let (top, left) = (r0 - BLOCK - reach, c0 - BLOCK - reach);
+        let inside = top >= 0 && left >= 0 && top + rows as isize <= h && left + rows as isize <= w;
+        let region = |k: usize| {
+            let start = ((top + k as isize) * w + left) as usize;
+            &plane[start..start + rows]
+        };
+        if inside && (0..rows).all(|k| region(k).iter().all(|v| v.is_finite())) {
+            for (k, line) in across.iter_mut().take(rows).enumerate() {
+                let source = region(k);
+                for (m, cell) in line.iter_mut().enumerate() {
+                    for (v, t) in source[m..].iter().zip(taps) {
+                        cell.0 += t * v;
+                        cell.1 += t;
+                    }
+                }
+            }
+            return Smoothed::columns(&across, taps, [r0, c0]);
+        }
         for (k, line) in across.iter_mut().take(rows).enumerate() {
             let r = r0 - BLOCK - reach + k as isize;
             if r < 0 || r >= h {
@@ -187,7 +241,11 @@ impl Smoothed {
                 }
             }
         }
-        // Column pass.
+        Smoothed::columns(&across, taps, [r0, c0])
+    }
+
+    /// Column pass over the row sums `across` (value, weight) of the block's columns.
+    fn columns(across: &[[(f64, f64); 5]], taps: &[f64], [r0, c0]: [isize; 2]) -> Self {
         let mut values = [[f64::NAN; 5]; 5];
         for (n, row) in values.iter_mut().enumerate() {
             for (m, out) in row.iter_mut().enumerate() {

@@ -125,8 +125,13 @@ fn direct_fft_and_definition_agree_on_random_inputs() {
         let (pw, ph) = (shape.plane_width(), shape.plane_height());
         let overlap = Overlap::new(shape);
         let mut direct = vec![0.0; pw * ph];
-        let mut diff = vec![0.0; (pw + 1) * (ph + 1)];
-        direct::correlate(a, b, &stats, shape, &overlap, &mut direct, &mut diff);
+        let mut acc = direct::Accumulators::new(shape);
+        let best = direct::correlate(a, b, &stats, shape, &overlap, &mut direct, &mut acc);
+        assert_eq!(best, crate::estimate::peak::argmax(&direct));
+        // The accumulators are left cleared: a second run gives the same plane.
+        let mut again = vec![0.0; pw * ph];
+        direct::correlate(a, b, &stats, shape, &overlap, &mut again, &mut acc);
+        assert_eq!(direct, again);
         let mut fft = vec![0.0; pw * ph];
         Fourier::new(shape).correlate(a, b, &stats, &overlap, &mut fft);
         let dense = dense_plane(a, b, &stats, shape);
@@ -161,7 +166,7 @@ fn zero_lag_is_the_mean_pearson_coefficient() {
     let mut stats = Vec::new();
     slice_statistics(a.all(), a.all(), shape, &mut stats);
     let mut plane = vec![0.0; 13 * 11];
-    let mut diff = vec![0.0; 14 * 12];
+    let mut acc = direct::Accumulators::new(shape);
     let overlap = Overlap::new(shape);
     direct::correlate(
         a.all(),
@@ -170,7 +175,7 @@ fn zero_lag_is_the_mean_pearson_coefficient() {
         shape,
         &overlap,
         &mut plane,
-        &mut diff,
+        &mut acc,
     );
     assert!(
         (plane[5 * 13 + 6] - 1.0).abs() < 1e-12,
@@ -294,7 +299,6 @@ fn shared_voxelisation_equals_separate_sub_volumes() {
         slice_statistics(a, b, shape, &mut stats);
         let (pw, ph) = (shape.plane_width(), shape.plane_height());
         let mut plane = vec![0.0; pw * ph];
-        let mut diff = vec![0.0; (pw + 1) * (ph + 1)];
         direct::correlate(
             a,
             b,
@@ -302,7 +306,7 @@ fn shared_voxelisation_equals_separate_sub_volumes() {
             shape,
             &Overlap::new(shape),
             &mut plane,
-            &mut diff,
+            &mut direct::Accumulators::new(shape),
         );
         (stats, plane)
     };

@@ -172,8 +172,21 @@ impl Voxeliser {
             self.slices_per_us = slices as f64 / slab_us as f64;
             self.slice_table.clear();
             if slab_us <= TABLE_US && slices <= usize::from(u16::MAX) {
-                let table = (0..slab_us).map(|t| self.slice_by_arithmetic(t) as u16);
+                // ⌊tN/T⌋ step by step: z grows by one whenever t·N reaches (z + 1)·T.
+                let n = slices as i64;
+                let mut z = 0i64;
+                let table = (0..slab_us).map(|t| {
+                    while (z + 1) * slab_us <= t * n {
+                        z += 1;
+                    }
+                    z.min(n - 1) as u16
+                });
                 self.slice_table = table.collect();
+                debug_assert!(self
+                    .slice_table
+                    .iter()
+                    .enumerate()
+                    .all(|(t, &z)| usize::from(z) == self.slice_by_arithmetic(t as i64)));
             }
         }
         self.count = count;
@@ -258,7 +271,7 @@ impl Voxeliser {
         out.start.push(0);
         out.slice_events.clone_from(&self.slice_events);
         out.h = h;
-        out.row_start.clear();
+        // Every entry is written below: no clearing.
         out.row_start.resize(self.slices * (h + 1), 0);
         for z in 0..self.slices {
             let starts = &mut out.row_start[z * (h + 1)..(z + 1) * (h + 1)];
@@ -385,6 +398,27 @@ impl Overlap {
         let per_slice = 1.0 / slices.max(1) as f64;
         for (p, inverse) in plane.iter_mut().zip(&self.inverse) {
             *p *= inverse * per_slice;
+        }
+    }
+}
+
+#[cfg(test)]
+mod slice_table_tests {
+    use super::Voxeliser;
+
+    #[test]
+    fn tabulated_slices_equal_the_arithmetic() {
+        let mut v = Voxeliser::new(8, 8);
+        for (slab_us, slices) in [(10_000, 20), (13_000, 26), (997, 13), (7, 7), (1000, 1)] {
+            v.begin(slab_us, slices, false);
+            assert_eq!(v.slice_table.len(), slab_us as usize);
+            for t in 0..slab_us {
+                assert_eq!(
+                    v.slice_of(t),
+                    v.slice_by_arithmetic(t),
+                    "{slab_us} {slices} {t}"
+                );
+            }
         }
     }
 }
