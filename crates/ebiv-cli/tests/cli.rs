@@ -138,6 +138,33 @@ fn errors_are_one_clear_line_and_a_failure_code() {
     assert!(stderr(&out).contains("not a time"), "{}", stderr(&out));
 }
 
+/// `ebiv process FILE --method METHOD` with the EBIV paper's slab, delay, slices, polarity
+/// and the one field at 10 ms of the wall-flow slice, written to `out`.
+fn paper_settings<'a>(
+    file: &'a std::path::Path,
+    method: &'a str,
+    out: &'a std::path::Path,
+) -> Vec<&'a str> {
+    vec![
+        "process",
+        file.to_str().unwrap(),
+        "--method",
+        method,
+        "--slab",
+        "10ms",
+        "--tau",
+        "3ms",
+        "--slices",
+        "20",
+        "--polarity",
+        "pos",
+        "--time",
+        "10ms:10ms:1ms",
+        "-o",
+        out.to_str().unwrap(),
+    ]
+}
+
 #[test]
 fn process_the_real_wall_flow_with_both_methods_and_the_paper_settings() {
     let Some(file) = data("ebiv/wallflow_slice2.npz") else {
@@ -147,28 +174,8 @@ fn process_the_real_wall_flow_with_both_methods_and_the_paper_settings() {
     let mut fields = Vec::new();
     for method in ["corrsum", "motion"] {
         let out = dir.path().join(format!("{method}.csv"));
-        let o = ebiv(&[
-            "process",
-            file.to_str().unwrap(),
-            "--method",
-            method,
-            "--window",
-            "40",
-            "--step",
-            "20",
-            "--slab",
-            "10ms",
-            "--tau",
-            "3ms",
-            "--slices",
-            "20",
-            "--polarity",
-            "pos",
-            "--time",
-            "10ms:10ms:1ms",
-            "-o",
-            out.to_str().unwrap(),
-        ]);
+        let args = paper_settings(&file, method, &out);
+        let o = ebiv(&[&args[..], &["--window", "40", "--step", "20"]].concat());
         assert!(o.status.success(), "{}", stderr(&o));
         assert!(stdout(&o).contains("576 vectors"), "{}", stdout(&o));
         fields.push(read_field_rows(&out));
@@ -218,24 +225,7 @@ fn wall_flow_default_passes_flag_under_2_percent() {
     let (mut fields, mut plain) = (Vec::new(), Vec::new());
     for method in ["corrsum", "motion"] {
         let out = dir.path().join(format!("{method}.csv"));
-        let args = [
-            "process",
-            file.to_str().unwrap(),
-            "--method",
-            method,
-            "--slab",
-            "10ms",
-            "--tau",
-            "3ms",
-            "--slices",
-            "20",
-            "--polarity",
-            "pos",
-            "--time",
-            "10ms:10ms:1ms",
-            "-o",
-            out.to_str().unwrap(),
-        ];
+        let args = paper_settings(&file, method, &out);
         let o = ebiv(&args);
         assert!(o.status.success(), "{}", stderr(&o));
         let flagged = flagged_count(&stdout(&o));
