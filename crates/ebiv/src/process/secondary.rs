@@ -28,7 +28,8 @@
 //! is re-evaluated: there the neighbours come from windows that were themselves evaluated
 //! around a validated predictor. In a single pass through a vortex core (strong gradients,
 //! few particles) the neighbours' median is no trustworthy reference: on the simulated
-//! Lamb–Oseen vortex, re-evaluating single 32 px passes accepted wrong peaks (RMS 0.45 →
+//! Lamb–Oseen vortex, a first version of this re-evaluation (peak heights compared across
+//! the two evaluations) applied to single 32 px passes accepted wrong peaks (RMS 0.45 →
 //! 0.53 px/ms), while after 64 → 32 px passes it changed nothing measurable.
 
 use super::{predictor, ProcessParams};
