@@ -13,8 +13,9 @@
 
 use super::voxels::{Overlap, PlaneShape, SliceStats, SubVolume};
 
-/// Working memory of [`correlate`] for one plane shape. Both arrays are all zero between
-/// calls (the final pass clears what it reads), so no window pays for clearing them.
+/// Working memory of [`correlate`] for one plane shape. `pairs` and `diff` are all zero
+/// between calls (the final pass clears what it reads), so no window pays for clearing them;
+/// `column` is reset on entry.
 #[derive(Debug, Clone)]
 pub(super) struct Accumulators {
     /// Σ over voxel pairs of `a·b(·+Δ)`, one cell per lag.

@@ -296,7 +296,11 @@ fn scatter<const K: usize, const P: usize>(
     let stride = canvas.width;
     let first = table.first as isize;
     let levels = LEVELS as f32;
-    debug_assert_eq!(table.lanes, P);
+    assert_eq!(
+        table.lanes, P,
+        "splat table padded to {} lanes, kernel built for {P}",
+        table.lanes
+    );
     let grid = &mut work.canvas[..canvas.cells() + (P - K)];
     let n = work.ct.len();
     work.footprint.resize(n, 0);
@@ -455,7 +459,11 @@ fn derivatives_of<const K: usize, const P: usize>(
     let stride = canvas.width;
     let first = table.first as isize;
     let levels = LEVELS as f32;
-    debug_assert_eq!(table.lanes, P);
+    assert_eq!(
+        table.lanes, P,
+        "splat table padded to {} lanes, kernel built for {P}",
+        table.lanes
+    );
     let cells = canvas.cells() + (P - K);
     let row = |tab: &[f32], q: usize| -> [f32; P] { lane_row::<P>(tab, q) };
     let n = work.ct.len();

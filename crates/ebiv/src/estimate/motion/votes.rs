@@ -53,12 +53,15 @@ fn add_scaled(out: &mut [u32], add: &[u32], k: u32) {
 }
 
 /// `floor(a)` for `a` in `[−1, limit]` (`limit` < 2²¹), as `u32` with −1 wrapped to
-/// `u32::MAX`; NaN and values outside are clamped to that range first.
+/// `u32::MAX`; NaN and values outside are clamped first (`a − 0.5` is clamped to that range).
 ///
 /// Rounding by adding 1.5 · 2²³ (the float's mantissa then holds the integer part) instead of
 /// a saturating `as` cast, which the compiler cannot vectorise: the pair loop's cost is
 /// dominated by the conversion otherwise. `round(a − 0.5)` is the floor except where `a` is
-/// an exact integer and rounding ties to even, a measure-zero set for pair velocities.
+/// an exact odd integer, where rounding ties to even gives the cell below (pairs whose
+/// displacement and time difference fall on the cell lattice exactly: rare, one cell off).
+/// Unlike the earlier truncating cast, values in (−1, 0) fall outside the map instead of
+/// into its first row or column.
 #[inline(always)]
 fn cell_index(a: f32, limit: f32) -> u32 {
     const MAGIC: f32 = 12_582_912.0;
