@@ -150,8 +150,8 @@ pub struct ProcessArgs {
     #[arg(long)]
     pub replace: bool,
     /// Keep the last pass's median-test outliers flagged instead of re-evaluating them on a
-    /// lower peak near their neighbours' median (multi-pass runs of corrsum and motion;
-    /// accepted vectors are valid with peak_ratio <= 1).
+    /// lower correlation peak near their neighbours' median (corrsum, multi-pass runs;
+    /// accepted vectors are valid, their peak_ratio is their peak over the highest other one).
     #[arg(long)]
     pub no_secondary_peaks: bool,
     /// Calibration: millimetres per pixel; outputs then give mm and m/s.

@@ -182,9 +182,10 @@ output = "flow.nc"              # .nc, .csv, .npz, .dat (Tecplot) or .vtk
 # search-range = 4.0            # motion: half-width of the velocity search, px/ms
 #                               # (default: window / slab, a quarter of it around a predictor)
 replace = false                 # replace outliers of the last pass by interpolation
-secondary-peaks = true          # corrsum/motion, multi-pass: re-evaluate the last pass's
-                                # median-test outliers on a lower peak (>= half the highest)
-                                # near their neighbours' median; accepted: peak_ratio <= 1
+secondary-peaks = true          # corrsum, multi-pass: re-evaluate the last pass's
+                                # median-test outliers on a lower correlation peak (>= half
+                                # the highest) near their neighbours' median; flag
+                                # --no-secondary-peaks turns it off
 
 # mask = "mask.png"             # image of the sensor size; non-zero pixels are left out
 
