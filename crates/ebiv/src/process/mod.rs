@@ -13,7 +13,6 @@ mod secondary;
 mod stream;
 mod times;
 
-pub use secondary::MIN_RELATIVE_HEIGHT as SECONDARY_PEAK_MIN_HEIGHT;
 pub use stream::{
     process_recording, scan_extent, BatchSource, FieldDone, MemorySource, RecordingExtent,
     RunSummary, SlidingEvents,
@@ -84,6 +83,17 @@ impl Default for ProcessParams {
 }
 
 impl ProcessParams {
+    /// What the previous pass's `field` predicts at point `c` (image px) for a field at
+    /// `t0_us`, with this run's deformation and predictor smoothing.
+    fn prediction(
+        &self,
+        field: &VectorField,
+        c: [f64; 2],
+        t0_us: i64,
+    ) -> Option<crate::estimate::Prediction> {
+        predictor::predict(field, c, t0_us, self.deform, self.predictor_smoothing)
+    }
+
     /// The grids of every pass on a sensor of `geometry`.
     pub fn grids(&self, geometry: Geometry) -> Result<Vec<Grid>> {
         if self.passes.is_empty() {
@@ -213,9 +223,7 @@ fn evaluate_pass<E: Estimator>(
                 }
                 let window = grid.window(i);
                 let c = window.centre();
-                let guess = predictor.and_then(|p| {
-                    predictor::predict(p, c, t0_us, params.deform, params.predictor_smoothing)
-                });
+                let guess = predictor.and_then(|p| params.prediction(p, c, t0_us));
                 estimator.estimate(slab, &window, t0_us, guess.as_ref(), scratch)
             },
         )

@@ -32,7 +32,7 @@
 //! the two evaluations) applied to single 32 px passes accepted wrong peaks (RMS 0.45 →
 //! 0.53 px/ms), while after 64 → 32 px passes it changed nothing measurable.
 
-use super::{predictor, ProcessParams};
+use super::ProcessParams;
 use crate::estimate::{Estimator, Prediction};
 use crate::field::{Status, VectorField};
 use crate::grid::Grid;
@@ -70,18 +70,13 @@ pub(super) fn reevaluate_outliers<E: Estimator>(
             };
             let window = grid.window(i);
             let c = window.centre();
-            let deformation = predictor::predict(
-                predictor,
-                c,
-                t0_us,
-                params.deform,
-                params.predictor_smoothing,
-            )
-            .and_then(|p| p.deformation)
-            .map(|mut d| {
-                d.velocity = reference.median;
-                d
-            });
+            let deformation = params
+                .prediction(predictor, c, t0_us)
+                .and_then(|p| p.deformation)
+                .map(|mut d| {
+                    d.velocity = reference.median;
+                    d
+                });
             let tolerance = (0..2)
                 .map(|k| threshold * (reference.spread[k] + epsilon))
                 .fold(0.0, f64::max);

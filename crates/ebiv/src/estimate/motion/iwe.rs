@@ -54,6 +54,17 @@ pub(crate) struct SplatTable {
 }
 
 impl SplatTable {
+    /// Panic unless the rows are stored `p` lanes wide, as the kernel about to read them
+    /// assumes (a programming error, checked in release builds too: it costs one compare
+    /// per evaluation).
+    fn expect_lanes(&self, p: usize) {
+        assert_eq!(
+            self.lanes, p,
+            "splat table padded to {} lanes, kernel built for {p}",
+            self.lanes
+        );
+    }
+
     /// The table of `splat`.
     pub fn new(splat: Splat) -> Self {
         let (taps, shift, k) = match splat {
@@ -296,11 +307,7 @@ fn scatter<const K: usize, const P: usize>(
     let stride = canvas.width;
     let first = table.first as isize;
     let levels = LEVELS as f32;
-    assert_eq!(
-        table.lanes, P,
-        "splat table padded to {} lanes, kernel built for {P}",
-        table.lanes
-    );
+    table.expect_lanes(P);
     let grid = &mut work.canvas[..canvas.cells() + (P - K)];
     let n = work.ct.len();
     work.footprint.resize(n, 0);
@@ -459,11 +466,7 @@ fn derivatives_of<const K: usize, const P: usize>(
     let stride = canvas.width;
     let first = table.first as isize;
     let levels = LEVELS as f32;
-    assert_eq!(
-        table.lanes, P,
-        "splat table padded to {} lanes, kernel built for {P}",
-        table.lanes
-    );
+    table.expect_lanes(P);
     let cells = canvas.cells() + (P - K);
     let row = |tab: &[f32], q: usize| -> [f32; P] { lane_row::<P>(tab, q) };
     let n = work.ct.len();
