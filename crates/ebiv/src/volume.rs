@@ -109,6 +109,22 @@ impl Deformation {
 /// folds the window over itself within the slab and the events are left as they are.
 const MAX_STRAIN: f64 = 8.0;
 
+/// Tile index of an event [`Slab::build`] leaves out.
+const SKIPPED: u32 = u32::MAX;
+
+/// Indices of `t` that can hold times in `[start_us, end_us)`: found by binary search when
+/// `t` is in time order (as readers deliver it, apart from rare EVT 3.0 time regressions),
+/// otherwise all of them.
+fn candidate_range(t: &[i64], start_us: i64, end_us: i64) -> std::ops::Range<usize> {
+    // A branch-free fold, so the check costs about one compare per event.
+    let sorted = t.windows(2).fold(true, |ok, w| ok & (w[0] <= w[1]));
+    if sorted {
+        t.partition_point(|&v| v < start_us)..t.partition_point(|&v| v < end_us)
+    } else {
+        0..t.len()
+    }
+}
+
 /// Events of the time interval `[start_us, end_us)` over the whole sensor, grouped by tile.
 #[derive(Debug, Clone)]
 pub struct Slab {
@@ -145,18 +161,28 @@ impl Slab {
         let tiles_x = geometry.width.div_ceil(tile).max(1);
         let tiles_y = geometry.height.div_ceil(tile).max(1);
         let n_tiles = (tiles_x * tiles_y) as usize;
-        let keep = |i: usize| {
-            t[i] >= start_us
-                && t[i] < end_us
-                && (x[i] as u32) < geometry.width
-                && (y[i] as u32) < geometry.height
-                && polarity.accepts(p[i])
-        };
-        let tile_of = |i: usize| (y[i] as u32 / tile * tiles_x + x[i] as u32 / tile) as usize;
         let n = t.len().min(x.len()).min(y.len()).min(p.len());
+        let candidates = candidate_range(&t[..n], start_us, end_us);
+        // Tile column of every pixel column and first tile of every pixel row, so the filter
+        // below needs no division.
+        let tile_column: Vec<u32> = (0..geometry.width).map(|c| c / tile).collect();
+        let tile_row: Vec<u32> = (0..geometry.height).map(|r| r / tile * tiles_x).collect();
+        // Tile of every candidate, `SKIPPED` for events outside the interval, the sensor or
+        // the polarity selection: the filter runs once, the scatter pass reads the tiles.
+        let r = candidates.clone();
+        let tiles: Vec<u32> = (t[r.clone()].iter().zip(&x[r.clone()]))
+            .zip(y[r.clone()].iter().zip(&p[r]))
+            .map(|((&t, &x), (&y, &p))| {
+                let in_time = t >= start_us && t < end_us;
+                match (tile_column.get(x as usize), tile_row.get(y as usize)) {
+                    (Some(&column), Some(&row)) if in_time && polarity.accepts(p) => row + column,
+                    _ => SKIPPED,
+                }
+            })
+            .collect();
         let mut counts = vec![0usize; n_tiles + 1];
-        for i in (0..n).filter(|&i| keep(i)) {
-            counts[tile_of(i) + 1] += 1;
+        for &k in tiles.iter().filter(|&&k| k != SKIPPED) {
+            counts[k as usize + 1] += 1;
         }
         for k in 0..n_tiles {
             counts[k + 1] += counts[k];
@@ -164,10 +190,9 @@ impl Slab {
         let total = counts[n_tiles];
         let mut fill = counts.clone();
         let (mut sx, mut sy, mut st) = (vec![0u16; total], vec![0u16; total], vec![0i64; total]);
-        for i in (0..n).filter(|&i| keep(i)) {
-            let k = tile_of(i);
-            let at = fill[k];
-            fill[k] += 1;
+        for (i, &k) in candidates.zip(&tiles).filter(|&(_, &k)| k != SKIPPED) {
+            let at = fill[k as usize];
+            fill[k as usize] += 1;
             sx[at] = x[i];
             sy[at] = y[i];
             st[at] = t[i];
@@ -477,23 +502,29 @@ mod tests {
             x0 in -20i64..80, y0 in -20i64..60, w in 1u32..40, h in 1u32..40,
             t_from in -10i64..1000, dt in 0i64..1000, tile in 1u32..20,
         ) {
-            let t: Vec<i64> = ev.iter().map(|e| e.0).collect();
-            let x: Vec<u16> = ev.iter().map(|e| e.1).collect();
-            let y: Vec<u16> = ev.iter().map(|e| e.2).collect();
-            let p: Vec<u8> = ev.iter().map(|e| e.3).collect();
-            let slab = Slab::build(&t, &x, &y, &p, Geometry::new(64, 48), 100, 900,
-                PolaritySelection::Positive, tile);
-            let window = Window { x0, y0, width: w, height: h };
-            let mut out = WindowEvents::default();
-            slab.gather(&window, t_from, t_from + dt, 50, &mut out);
-            let mut got: Vec<(i64, i64, i64)> = (0..out.len())
-                .map(|i| (out.t[i] as i64 + 50, out.x[i] as i64, out.y[i] as i64))
-                .collect();
-            got.sort();
-            // Events outside the 64×48 geometry are ignored by the slab.
-            let inside: Vec<_> = ev.iter().copied().filter(|e| e.1 < 64 && e.2 < 48).collect();
-            prop_assert_eq!(&got, &brute_force(&inside, &window, t_from, t_from + dt, (100, 900)));
-            prop_assert_eq!(slab.count(&window, t_from, t_from + dt), got.len());
+            // In file order (any) and in time order, where the slab's time range is found
+            // by binary search.
+            let mut sorted = ev.clone();
+            sorted.sort_by_key(|e| e.0);
+            for ev in [ev, sorted] {
+                let t: Vec<i64> = ev.iter().map(|e| e.0).collect();
+                let x: Vec<u16> = ev.iter().map(|e| e.1).collect();
+                let y: Vec<u16> = ev.iter().map(|e| e.2).collect();
+                let p: Vec<u8> = ev.iter().map(|e| e.3).collect();
+                let slab = Slab::build(&t, &x, &y, &p, Geometry::new(64, 48), 100, 900,
+                    PolaritySelection::Positive, tile);
+                let window = Window { x0, y0, width: w, height: h };
+                let mut out = WindowEvents::default();
+                slab.gather(&window, t_from, t_from + dt, 50, &mut out);
+                let mut got: Vec<(i64, i64, i64)> = (0..out.len())
+                    .map(|i| (out.t[i] as i64 + 50, out.x[i] as i64, out.y[i] as i64))
+                    .collect();
+                got.sort();
+                // Events outside the 64×48 geometry are ignored by the slab.
+                let inside: Vec<_> = ev.iter().copied().filter(|e| e.1 < 64 && e.2 < 48).collect();
+                prop_assert_eq!(&got, &brute_force(&inside, &window, t_from, t_from + dt, (100, 900)));
+                prop_assert_eq!(slab.count(&window, t_from, t_from + dt), got.len());
+            }
         }
     }
 }

@@ -172,16 +172,14 @@ impl Voxeliser {
             self.slices_per_us = slices as f64 / slab_us as f64;
             self.slice_table.clear();
             if slab_us <= TABLE_US && slices <= usize::from(u16::MAX) {
-                // ⌊tN/T⌋ step by step: z grows by one whenever t·N reaches (z + 1)·T.
+                // ⌊tN/T⌋ = z for t from ⌈zT/N⌉ up to ⌈(z + 1)T/N⌉, filled slice by slice.
                 let n = slices as i64;
-                let mut z = 0i64;
-                let table = (0..slab_us).map(|t| {
-                    while (z + 1) * slab_us <= t * n {
-                        z += 1;
-                    }
-                    z.min(n - 1) as u16
-                });
-                self.slice_table = table.collect();
+                let first_us = |z: i64| ((z * slab_us + n - 1) / n) as usize;
+                self.slice_table.resize(slab_us as usize, 0);
+                for z in 1..n {
+                    let end = first_us(z + 1).min(slab_us as usize);
+                    self.slice_table[first_us(z)..end].fill(z as u16);
+                }
                 debug_assert!(self
                     .slice_table
                     .iter()
