@@ -17,6 +17,11 @@ use std::process::ExitCode;
 #[derive(Debug, Parser)]
 #[command(name = "ebiv", version, about, long_about)]
 struct Cli {
+    /// Worker threads for the parallel work (windows, simulator bands, figures). Default:
+    /// one per core, or the RAYON_NUM_THREADS environment variable. Results are the same for
+    /// any number of threads.
+    #[arg(long, global = true, value_name = "N", value_parser = clap::value_parser!(u16).range(1..))]
+    threads: Option<u16>,
     #[command(subcommand)]
     command: Command,
 }
@@ -58,6 +63,13 @@ fn die_quietly_on_closed_pipe() {
 fn main() -> ExitCode {
     die_quietly_on_closed_pipe();
     let cli = Cli::parse();
+    if let Some(n) = cli.threads {
+        let pool = rayon::ThreadPoolBuilder::new().num_threads(usize::from(n));
+        if let Err(e) = pool.build_global() {
+            eprintln!("error: --threads {n}: {e}");
+            return ExitCode::FAILURE;
+        }
+    }
     let result = match &cli.command {
         Command::Demo(a) => cmd::demo::run(a),
         Command::Info(a) => cmd::info::run(a),

@@ -377,3 +377,53 @@ fn a_closed_output_pipe_ends_quietly() {
     assert!(!stderr(&out).contains("panicked"), "{}", stderr(&out));
     assert_eq!(out.status.signal(), Some(libc::SIGPIPE), "{:?}", out.status);
 }
+
+/// `--threads N` (global, before or after the command) sets the worker threads; the events
+/// are the same for any number, and 0 is refused with a message naming the option.
+#[test]
+fn the_thread_count_is_chosen_and_does_not_change_results() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = |name: &str| dir.path().join(name).to_str().unwrap().to_string();
+    let simulate = |threads: &str, out: &str| {
+        let (example, duration) = (["--example", "turntable"], ["--duration", "5ms"]);
+        let out = ebiv(
+            &[
+                ["--threads", threads, "simulate"].as_slice(),
+                &example,
+                &duration,
+                &["-o", out],
+            ]
+            .concat(),
+        );
+        assert!(out.status.success(), "{}", stderr(&out));
+    };
+    simulate("1", &path("one.raw"));
+    simulate("2", &path("two.raw"));
+    let (one, two) = (
+        std::fs::read(path("one.raw")).unwrap(),
+        std::fs::read(path("two.raw")).unwrap(),
+    );
+    assert!(
+        one.len() > 1000 && one == two,
+        "{} vs {} bytes",
+        one.len(),
+        two.len()
+    );
+
+    let out = ebiv(&[
+        "bench",
+        "simulate",
+        "--duration",
+        "2ms",
+        "--repeat",
+        "1",
+        "--threads",
+        "1",
+    ]);
+    assert!(out.status.success(), "{}", stderr(&out));
+    assert!(stdout(&out).contains("on 1 threads"), "{}", stdout(&out));
+
+    let out = ebiv(&["--threads", "0", "info", &path("one.raw")]);
+    assert!(!out.status.success());
+    assert!(stderr(&out).contains("--threads"), "{}", stderr(&out));
+}
