@@ -34,7 +34,9 @@ const SHIFT: f64 = 6_755_399_441_055_744.0;
 /// x ≤ −708, `+∞` above 709.78, NaN for NaN.
 #[inline(always)]
 pub fn exp(x: f64) -> f64 {
-    if x.abs() >= 708.0 || x.is_nan() {
+    // One comparison: NaN is not in range either.
+    let in_range = x.abs() < 708.0;
+    if !in_range {
         return exp_edge(x);
     }
     let kd = x * INV_LN2_64 + SHIFT;
@@ -74,7 +76,8 @@ fn exp_edge(x: f64) -> f64 {
 pub fn ln(x: f64) -> f64 {
     let bits = x.to_bits();
     let biased = bits >> 52;
-    if biased == 0 || biased >= 0x7FF {
+    // `biased` outside 1..=0x7FE (zero, subnormal, negative, ∞, NaN) in one comparison.
+    if biased.wrapping_sub(1) >= 0x7FE {
         return x.ln();
     }
     let e = biased as i64 - 1023;

@@ -381,12 +381,16 @@ pub const IMAGE_FLOOR: f64 = 1e-4;
 /// Fraction of a unit Gaussian line spread (scale `s`) falling on each pixel `lo..=hi` around
 /// centre `c` (`inv_s` = 1/s): erf((i − c + ½)/s) − erf((i − c − ½)/s), each to within 1e-15
 /// ([`Erf`]).
+///
+/// `out` is resized to the pixel count and written in place (no per-pixel `push`, whose
+/// capacity check cost as much as the subtraction it stores).
 fn integrate_axis(erf: Erf, out: &mut Vec<f64>, lo: i64, hi: i64, c: f64, inv_s: f64) {
-    out.clear();
+    let n = usize::try_from(hi - lo + 1).unwrap_or(0);
+    out.resize(n, 0.0);
     let mut left = erf.eval((lo as f64 - c - 0.5) * inv_s);
-    for i in lo..=hi {
+    for (i, slot) in (lo..=hi).zip(out.iter_mut()) {
         let right = erf.eval((i as f64 - c + 0.5) * inv_s);
-        out.push(right - left);
+        *slot = right - left;
         left = right;
     }
 }

@@ -332,9 +332,10 @@ impl Band {
         let w = g.width as usize;
         let n = rows.len() * w;
         // Every pixel starts at its ambient irradiance, plus the particle light.
-        let mut value: Vec<f32> = (0..n)
-            .map(|k| illumination.ambient((k % w) as u32, rows.start + (k / w) as u32, t0))
-            .collect();
+        let mut value: Vec<f32> = Vec::with_capacity(n);
+        for y in rows.clone() {
+            value.extend((0..w as u32).map(|x| illumination.ambient(x, y, t0)));
+        }
         // Zeroed memory: paged in where particles pass, not up front.
         let (mut acc, mut mark) = (vec![0.0; n], vec![false; n]);
         let mut lit = Vec::new();

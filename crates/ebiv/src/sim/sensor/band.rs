@@ -120,8 +120,9 @@ impl SensorBand {
         let mut bound = RowNoiseBound::new(params, &response);
         // Scenes are mostly one irradiance: reuse the last logarithm.
         let (mut last_irr, mut last_u) = (0.0, response.log(0.0));
+        // Pixel `i` is at column `x`, row `y`: counted along, not divided out per pixel.
+        let (mut x, mut y) = (0u32, rows.start);
         for i in 0..n {
-            let (x, y) = ((i % width) as u32, rows.start + (i / width) as u32);
             // Fixed-pattern draws in a fixed order, whatever the parameters (v2e: frozen
             // N(θ, σ) thresholds clamped ≥ 0.01, log-normal noise-rate factor); the factor
             // comes last, so switching it off leaves thresholds and hot pixels as they are.
@@ -139,9 +140,6 @@ impl SensorBand {
                 hot.push(i as u32);
             }
             bound.add(factor as f64, theta_on, theta_off);
-            if x as usize + 1 == width {
-                row_noise_bound.push(bound.take());
-            }
             let irr = clean_irradiance(irradiance(x, y));
             if irr != last_irr {
                 (last_irr, last_u) = (irr, response.log(irr));
@@ -149,6 +147,11 @@ impl SensorBand {
             let mut px = Pixel::new(theta_on, theta_off);
             px.adapt(irr, last_u, t0);
             pixels.push(px);
+            x += 1;
+            if x as usize == width {
+                row_noise_bound.push(bound.take());
+                (x, y) = (0, y + 1);
+            }
         }
         if width == 0 {
             row_noise_bound.resize(rows.len(), 0.0);
