@@ -134,6 +134,13 @@ pub(super) struct Voxeliser {
     slices: usize,
     count: bool,
     slice_events: Vec<usize>,
+    /// Sub-pixel mode ([`Voxeliser::add_splat`]): bilinear weights of the voxels,
+    /// `[slice][row][column]`, and the occupancy bitmaps and row masks of the pixels they
+    /// reach (`bits` and `rows` then only deduplicate the voxels).
+    weights: Vec<f64>,
+    target_bits: Vec<u64>,
+    target_rows: Vec<u64>,
+    splat: bool,
 }
 
 impl Voxeliser {
@@ -152,6 +159,10 @@ impl Voxeliser {
             slices: 1,
             count: false,
             slice_events: Vec::new(),
+            weights: Vec::new(),
+            target_bits: Vec::new(),
+            target_rows: Vec::new(),
+            splat: false,
         }
     }
 
@@ -200,6 +211,62 @@ impl Voxeliser {
         }
         self.slice_events.clear();
         self.slice_events.resize(self.slices, 0);
+        self.splat = false;
+    }
+
+    /// Like [`Voxeliser::begin`], for voxels placed at the sub-pixel positions of their
+    /// events ([`Voxeliser::add_splat`]).
+    pub fn begin_splat(&mut self, slab_us: i64, slices: usize, count: bool) {
+        self.begin(slab_us, slices, count);
+        self.splat = true;
+        let need = self.slices * self.h * self.words;
+        if self.target_bits.len() < need {
+            self.target_bits.resize(need, 0);
+        }
+        if self.target_rows.len() < self.slices * self.row_words {
+            self.target_rows.resize(self.slices * self.row_words, 0);
+        }
+        if self.weights.len() < self.slices * self.h * self.w {
+            self.weights.resize(self.slices * self.h * self.w, 0.0);
+        }
+    }
+
+    /// Bin one event at the sub-pixel local position `(x, y)`, time `t` µs after the
+    /// sub-volume start, into a voxeliser started with [`Voxeliser::begin_splat`]. The voxel
+    /// is the event's nearest pixel, as in [`Voxeliser::add`] (binary: the first event of a
+    /// voxel stands for all of them), but its value is spread over the 3 × 3 pixels around
+    /// it with the weights of [`shift_taps`] for the offset of `(x, y)` from the pixel
+    /// centre: the occupancy image resampled at positions shifted by a fraction of a pixel,
+    /// as PIV window deformation resamples its images (Scarano 2002, Meas. Sci. Technol.
+    /// 13:R1), so that a predicted displacement is removed exactly instead of to the
+    /// nearest pixel. Weights falling outside the window are dropped.
+    #[inline]
+    pub fn add_splat(&mut self, x: f32, y: f32, t: f32) {
+        let (xf, yf) = (x + 0.5, y + 0.5);
+        if !(xf >= 0.0 && yf >= 0.0 && t >= 0.0) {
+            return;
+        }
+        let (col, row, time) = (xf as usize, yf as usize, t as i64);
+        if col >= self.w || row >= self.h || !(0..self.slab_us).contains(&time) {
+            return;
+        }
+        let z = self.slice_of(time);
+        self.slice_events[z] += 1;
+        let line = (z * self.h + row) * self.words;
+        let bit = 1u64 << (col % 64);
+        if !self.count && self.bits[line + col / 64] & bit != 0 {
+            return;
+        }
+        self.bits[line + col / 64] |= bit;
+        self.rows[z * self.row_words + row / 64] |= 1u64 << (row % 64);
+        let wx = shift_taps(f64::from(x) - col as f64);
+        let wy = shift_taps(f64::from(y) - row as f64);
+        let (col, row) = (col as isize - 1, row as isize - 1);
+        for (dy, wy) in (0..).zip(wy) {
+            for (dx, wx) in (0..).zip(wx) {
+                self.put(z, col + dx, row + dy, wx * wy);
+            }
+        }
     }
 
     /// Bin one event at local position `(x, y)` (rounded to the nearest pixel: the identity
@@ -255,8 +322,48 @@ impl Voxeliser {
         z.clamp(0, n - 1) as usize
     }
 
+    /// Add `weight` to pixel `(c, r)` of slice `z` (splat mode), unless it lies outside the
+    /// window or the weight is zero.
+    #[inline(always)]
+    fn put(&mut self, z: usize, c: isize, r: isize, weight: f64) {
+        if c < 0 || r < 0 || c as usize >= self.w || r as usize >= self.h || weight <= 0.0 {
+            return;
+        }
+        let (c, r) = (c as usize, r as usize);
+        self.weights[(z * self.h + r) * self.w + c] += weight;
+        self.target_bits[(z * self.h + r) * self.words + c / 64] |= 1u64 << (c % 64);
+        self.target_rows[z * self.row_words + r / 64] |= 1u64 << (r % 64);
+    }
+
     /// Read the bitmaps back into `out` (clearing them), visiting only rows that hold events.
     pub fn finish(&mut self, out: &mut Voxels) {
+        if self.splat {
+            // Clear the deduplication bitmaps, then read the splatted pixels back.
+            for z in 0..self.slices {
+                for rw in 0..self.row_words {
+                    let mut mask = std::mem::take(&mut self.rows[z * self.row_words + rw]);
+                    while mask != 0 {
+                        let row = rw * 64 + mask.trailing_zeros() as usize;
+                        mask &= mask - 1;
+                        let line = (z * self.h + row) * self.words;
+                        self.bits[line..line + self.words].fill(0);
+                    }
+                }
+            }
+            std::mem::swap(&mut self.bits, &mut self.target_bits);
+            std::mem::swap(&mut self.rows, &mut self.target_rows);
+            self.read_back(out, true);
+            std::mem::swap(&mut self.bits, &mut self.target_bits);
+            std::mem::swap(&mut self.rows, &mut self.target_rows);
+            self.splat = false;
+        } else {
+            self.read_back(out, false);
+        }
+    }
+
+    /// Read the occupancy bitmaps (and counts or, `splatted`, weights) into `out`, clearing
+    /// them.
+    fn read_back(&mut self, out: &mut Voxels, splatted: bool) {
         let (w, h, words) = (self.w, self.h, self.words);
         let total: usize = self.slice_events.iter().sum();
         out.x.clear();
@@ -289,12 +396,15 @@ impl Voxeliser {
                             word &= word - 1;
                             out.x.push(col as u16);
                             out.y.push(row as u16);
-                            let value = if self.count {
-                                std::mem::take(&mut self.counts[(z * h + row) * w + col])
+                            let at = (z * h + row) * w + col;
+                            let value = if splatted {
+                                std::mem::take(&mut self.weights[at])
+                            } else if self.count {
+                                f64::from(std::mem::take(&mut self.counts[at]))
                             } else {
-                                1
+                                1.0
                             };
-                            out.v.push(f64::from(value));
+                            out.v.push(value);
                         }
                     }
                 }
@@ -320,6 +430,23 @@ impl Voxeliser {
         }
         self.finish(out);
     }
+}
+
+/// Weights of the pixels `−1, 0, +1` for a point at offset `a` (|a| ≤ ½) from the centre
+/// pixel, per axis ([`Voxeliser::add_splat`]): non-negative, summing to 1, with mean `a` and
+/// no third central moment, i.e. `w±1 = (s ± a)/2`, `w0 = 1 − s`, `s = (1 + 2a²)/3`
+/// (at `a = 0` the sampled cubic B-spline, 1/6, 2/3, 1/6; at `a = ±½` the bilinear weights).
+///
+/// The skewness matters: the cross-correlation of two images resampled by kernels `k1`
+/// and `k2` is the original one convolved with `k2 ⋆ k1`, whose third cumulant is the
+/// difference of theirs; with the symmetric split the two shifts are opposite and the
+/// skews add. Bilinear weights (skewness `a(1 − a)(1 − 2a)` for a fraction `a` from the
+/// lower pixel) then tilt the summed peak, and the peak fit converges to a displacement off
+/// by a fraction of the shift: measured +0.009 px/ms bias (0.4 %) on a uniform flow of
+/// (2.17, 0.83) px/ms, 64 → 32 px, against −0.002 with these weights.
+pub(super) fn shift_taps(a: f64) -> [f64; 3] {
+    let s = (1.0 + 2.0 * a * a) / 3.0;
+    [(s - a) / 2.0, 1.0 - s, (s + a) / 2.0]
 }
 
 /// Statistics of one slice pair with data in both sub-volumes.
@@ -402,7 +529,75 @@ impl Overlap {
 
 #[cfg(test)]
 mod slice_table_tests {
-    use super::Voxeliser;
+    use super::{shift_taps, Voxeliser, Voxels};
+    use crate::volume::WindowEvents;
+
+    #[test]
+    fn shift_taps_keep_mean_and_have_no_skew() {
+        for k in 0..=20 {
+            let a = -0.5 + k as f64 / 20.0;
+            let w = shift_taps(a);
+            let moment = |p: i32| {
+                (-1..=1)
+                    .zip(w)
+                    .map(|(x, w)| (x as f64 - a).powi(p) * w)
+                    .sum::<f64>()
+            };
+            assert!(w.iter().all(|&w| w >= 0.0), "{a}: {w:?}");
+            assert!((w.iter().sum::<f64>() - 1.0).abs() < 1e-12, "{a}: {w:?}");
+            assert!(moment(1).abs() < 1e-12, "{a}: mean off by {}", moment(1));
+            assert!(moment(3).abs() < 1e-12, "{a}: skewness {}", moment(3));
+        }
+        assert_eq!(shift_taps(0.5), [0.0, 0.5, 0.5]);
+    }
+
+    #[test]
+    fn splatted_voxels_sit_at_their_sub_pixel_position() {
+        // Three events of one pixel and slice (binary: one voxel), shifted by (0.3, −0.2) px:
+        // the weights sum to 1 and their centroid is the shifted position.
+        let events = WindowEvents {
+            x: vec![4.3; 3],
+            y: vec![2.8; 3],
+            t: vec![1.0, 2.0, 3.0],
+        };
+        let mut v = Voxeliser::new(8, 6);
+        let mut out = Voxels::default();
+        for round in 0..2 {
+            v.begin_splat(100, 2, false);
+            for ((&x, &y), &t) in events.x.iter().zip(&events.y).zip(&events.t) {
+                v.add_splat(x, y, t);
+            }
+            v.finish(&mut out);
+            assert_eq!(out.slice_events, [3, 0], "round {round}");
+            assert_eq!(out.x.len(), 9, "round {round}");
+            let total: f64 = out.v.iter().sum();
+            let cx: f64 = out
+                .x
+                .iter()
+                .zip(&out.v)
+                .map(|(&x, v)| f64::from(x) * v)
+                .sum();
+            let cy: f64 = out
+                .y
+                .iter()
+                .zip(&out.v)
+                .map(|(&y, v)| f64::from(y) * v)
+                .sum();
+            assert!((total - 1.0).abs() < 1e-9, "{total}");
+            assert!(
+                (cx - 4.3).abs() < 1e-6 && (cy - 2.8).abs() < 1e-6,
+                "({cx}, {cy})"
+            );
+        }
+        // The plain voxeliser afterwards sees cleared bitmaps.
+        v.begin(100, 2, false);
+        v.add(1.0, 1.0, 60.0);
+        v.finish(&mut out);
+        assert_eq!(
+            (out.x.as_slice(), out.y.as_slice(), out.v.as_slice()),
+            (&[1u16][..], &[1u16][..], &[1.0][..])
+        );
+    }
 
     #[test]
     fn tabulated_slices_equal_the_arithmetic() {
