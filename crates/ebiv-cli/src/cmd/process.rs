@@ -124,6 +124,12 @@ pub struct ProcessArgs {
     /// maximum before the sub-pixel fit, against peak locking (default 1; 0 = off).
     #[arg(long, value_name = "PX")]
     pub peak_smoothing: Option<f64>,
+    /// corrsum, multi-pass: keep the events' positions sub-pixel when the windows are
+    /// shifted and deformed by the predictor (3×3 spread voxels instead of rounding to
+    /// pixels): lower random error (simulated turntable RMS 0.027 → 0.016 px/ms), about twice
+    /// the processing time of the later passes.
+    #[arg(long)]
+    pub subpixel_shift: bool,
     /// motion: how the contrast maximum is found: newton (analytic gradient and Hessian from
     /// an event-pair vote, about four evaluations; the default) or grid (the paper's coarse
     /// grid and 5×5 refinement, 100–200 evaluations).
@@ -203,6 +209,7 @@ impl ProcessArgs {
             png: self.png.clone(),
             fit: self.fit.clone(),
             peak_smoothing: self.peak_smoothing,
+            subpixel_shift: self.subpixel_shift.then_some(true),
             motion_search: self.motion_search.clone(),
             search_range: self.search_range,
             replace: self.replace.then_some(true),

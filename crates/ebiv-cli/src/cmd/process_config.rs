@@ -28,6 +28,7 @@ pub struct ProcessConfig {
     pub png: Option<PathBuf>,
     pub fit: Option<String>,
     pub peak_smoothing: Option<f64>,
+    pub subpixel_shift: Option<bool>,
     pub motion_search: Option<String>,
     pub search_range: Option<f64>,
     pub replace: Option<bool>,
@@ -118,6 +119,7 @@ impl ProcessConfig {
             png,
             fit,
             peak_smoothing,
+            subpixel_shift,
             motion_search,
             search_range,
             replace,
@@ -177,6 +179,8 @@ output = "flow.nc"              # .nc, .csv, .npz, .dat (Tecplot) or .vtk
 #                               # (default: gauss2d for corrsum, gauss3 for motion)
 # peak-smoothing = 1.0          # corrsum: Gaussian σ (px) smoothing the plane near its peak
 #                               # before the fit, against peak locking; 0 = off
+# subpixel-shift = false        # corrsum, multi-pass: keep shifted/deformed event positions
+#                               # sub-pixel (lower random error, ~2x the later passes' time)
 # motion-search = "newton"      # motion: newton (default, ~4 evaluations per window) or grid
 #                               # (the paper's coarse grid + 5x5 refinement)
 # search-range = 4.0            # motion: half-width of the velocity search, px/ms

@@ -171,6 +171,9 @@ impl Settings {
         if let Some(sigma) = c.peak_smoothing {
             corrsum.peak_smoothing_px = sigma;
         }
+        if let Some(on) = c.subpixel_shift {
+            corrsum.subpixel_shift = on;
+        }
         if c.search_range.is_some() {
             motion.search_range = c.search_range;
         }
