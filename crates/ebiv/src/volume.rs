@@ -67,9 +67,30 @@ pub struct Deformation {
 }
 
 impl Deformation {
+    /// `Σ|G_ij|`, 1/ms: an event `dt` from `t0` is deformed while `Σ|G_ij dt|` stays within
+    /// [`MAX_STRAIN`].
+    fn strain_rate(&self) -> f64 {
+        self.gradient.iter().flatten().map(|g| g.abs()).sum()
+    }
+
+    /// The paths of events at most `max_dt_ms` from `t0` and `max_offset_px` (per axis) from
+    /// the centre, as polynomials in `dt` ([`AffinePaths`]).
+    fn paths(&self, max_dt_ms: f64, max_offset_px: f64) -> AffinePaths {
+        AffinePaths::new(self, max_dt_ms, max_offset_px)
+    }
+
     /// Where an event at window-relative offset `d = x − c` and time `dt_ms` after `t0` is
-    /// moved, relative to `c`.
+    /// moved, relative to `c` (one event; windows use [`Deformation::paths`]).
+    #[cfg(test)]
     fn undeform(&self, d: [f64; 2], dt_ms: f64) -> [f64; 2] {
+        let reach = d[0].abs().max(d[1].abs());
+        self.paths(dt_ms.abs(), reach).undeform(d, dt_ms)
+    }
+
+    /// [`Deformation::undeform`] summed term by term to convergence: the reference the
+    /// polynomials are tested against.
+    #[cfg(test)]
+    fn undeform_by_series(&self, d: [f64; 2], dt_ms: f64) -> [f64; 2] {
         let g = self.gradient;
         // A = −G dt: the flow map of the affine field, backwards over dt.
         let a = [
@@ -102,6 +123,109 @@ impl Deformation {
         }
         // p − c = e^{−G dt}(x − c) − φ(−G dt) v_c dt, moved to p + v_c dt.
         [e[0] + (vc[0] - f[0]) * dt_ms, e[1] + (vc[1] - f[1]) * dt_ms]
+    }
+}
+
+/// Most terms of the path polynomials (the series of `e^A` at `Σ|A_ij|` = [`MAX_STRAIN`]
+/// needs about 40 for 1e-10 px).
+const MAX_TERMS: usize = 64;
+/// Truncation error allowed in the path polynomials, px (f32 positions resolve about 4e-6
+/// px at 40 px).
+const PATH_TOLERANCE_PX: f64 = 1e-10;
+
+/// The exact affine paths of a [`Deformation`] for one window's events, as polynomials in
+/// the time offset `dt`. With `B = −G`, every power of the 2 × 2 matrix is `B^k = p_k I +
+/// q_k B` (Cayley–Hamilton: `B² = tr(B) B − det(B) I`), so
+///
+/// ```text
+/// e^{B dt} = α(dt) I + β(dt) B,             α = Σ p_k dt^k/k!,  β = Σ q_k dt^k/k!,
+/// φ(B dt) v_c − v_c = dt (γ(dt) v_c + δ(dt) B v_c),
+///                                           γ = Σ p_{k+1} dt^k/(k+2)!,  δ = Σ q_{k+1} dt^k/(k+2)!.
+/// ```
+///
+/// The four scalar series are computed once per window and truncated where their terms fall
+/// below [`PATH_TOLERANCE_PX`] over the window's time and space, so each event costs four
+/// Horner evaluations instead of a matrix series summed term by term.
+#[derive(Debug, Clone)]
+struct AffinePaths {
+    /// `B = −G` as `[b00, b01, b10, b11]`.
+    b: [f64; 4],
+    /// `B v_c`.
+    b_velocity: [f64; 2],
+    velocity: [f64; 2],
+    strain_rate: f64,
+    terms: usize,
+    /// Coefficients of α, β, γ, δ, term by term.
+    coefficients: [[f64; 4]; MAX_TERMS],
+}
+
+impl AffinePaths {
+    fn new(deformation: &Deformation, max_dt_ms: f64, max_offset_px: f64) -> AffinePaths {
+        let g = deformation.gradient;
+        let b = [-g[0][0], -g[0][1], -g[1][0], -g[1][1]];
+        let vc = deformation.velocity;
+        let (trace, det) = (b[0] + b[3], b[0] * b[3] - b[1] * b[2]);
+        let strain_rate = deformation.strain_rate();
+        // Events beyond MAX_STRAIN are left as they are, so the series need not reach them.
+        let reach = (strain_rate * max_dt_ms.abs()).min(MAX_STRAIN);
+        let scale = max_offset_px.abs() + (vc[0].abs() + vc[1].abs()) * max_dt_ms.abs() + 1.0;
+        let mut paths = AffinePaths {
+            b,
+            b_velocity: [b[0] * vc[0] + b[1] * vc[1], b[2] * vc[0] + b[3] * vc[1]],
+            velocity: vc,
+            strain_rate,
+            terms: 1,
+            coefficients: [[0.0; 4]; MAX_TERMS],
+        };
+        // (p_k, q_k)/k! for k and k + 1.
+        let next = |(p, q): (f64, f64), k: usize| {
+            let k1 = (k + 1) as f64;
+            (-q * det / k1, (p + q * trace) / k1)
+        };
+        let mut current = (1.0, 0.0);
+        // (reach^k / k!) · scale bounds the k-th term of every series.
+        let mut bound = scale;
+        for k in 0..MAX_TERMS {
+            let following = next(current, k);
+            // p_{k+1}/(k+2)! = (p_{k+1}/(k+1)!)/(k+2).
+            let k2 = (k + 2) as f64;
+            paths.coefficients[k] = [current.0, current.1, following.0 / k2, following.1 / k2];
+            paths.terms = k + 1;
+            bound *= reach / (k + 1) as f64;
+            if bound.is_nan() || bound < PATH_TOLERANCE_PX {
+                break;
+            }
+            current = following;
+        }
+        paths
+    }
+
+    /// Where an event at offset `d = x − c` and time `dt_ms` after `t0` is moved, relative to
+    /// `c`: `p − c + v_c dt` with `p − c = e^{−G dt}(x − c) − φ(−G dt) v_c dt`. Events beyond
+    /// [`MAX_STRAIN`] (or with a non-finite gradient) stay where they are.
+    #[inline]
+    fn undeform(&self, d: [f64; 2], dt_ms: f64) -> [f64; 2] {
+        let norm = self.strain_rate * dt_ms.abs();
+        if norm.is_nan() || norm > MAX_STRAIN {
+            return d;
+        }
+        let mut s = [0.0; 4];
+        for c in self.coefficients[..self.terms].iter().rev() {
+            s = [
+                s[0] * dt_ms + c[0],
+                s[1] * dt_ms + c[1],
+                s[2] * dt_ms + c[2],
+                s[3] * dt_ms + c[3],
+            ];
+        }
+        let [alpha, beta, gamma, delta] = s;
+        let b = self.b;
+        let bd = [b[0] * d[0] + b[1] * d[1], b[2] * d[0] + b[3] * d[1]];
+        let (vc, bv, dt2) = (self.velocity, self.b_velocity, dt_ms * dt_ms);
+        [
+            alpha * d[0] + beta * bd[0] - dt2 * (gamma * vc[0] + delta * bv[0]),
+            alpha * d[1] + beta * bd[1] - dt2 * (gamma * vc[1] + delta * bv[1]),
+        ]
     }
 }
 
@@ -324,10 +448,19 @@ impl Slab {
         // Window-local position of the deformation centre.
         let cx = deformation.centre[0] - window.x0 as f64;
         let cy = deformation.centre[1] - window.y0 as f64;
+        // The events' largest |dt| and offset from the centre bound the paths' truncation.
+        let max_dt_ms = [t_from, t_to]
+            .map(|t| ((t - deformation.t0_us) as f64 / 1000.0).abs())
+            .into_iter()
+            .fold(0.0, f64::max);
+        let reach = [cx, cy, window.width as f64 - cx, window.height as f64 - cy]
+            .into_iter()
+            .fold(0.0f64, |r, e| r.max(e.abs()));
+        let paths = deformation.paths(max_dt_ms, reach);
         for i in first..out.len() {
             let d = [out.x[i] as f64 - cx, out.y[i] as f64 - cy];
             let dt_ms = out.t[i] as f64 / 1000.0 + offset_ms;
-            let moved = deformation.undeform(d, dt_ms);
+            let moved = paths.undeform(d, dt_ms);
             out.x[i] = (moved[0] + cx) as f32;
             out.y[i] = (moved[1] + cy) as f32;
         }
@@ -491,6 +624,29 @@ mod tests {
                     (moved[k] - expected[k]).abs() < 1e-9,
                     "{moved:?} {expected:?}"
                 );
+            }
+        }
+    }
+
+    proptest! {
+        /// The per-window path polynomials equal the series summed event by event, up to the
+        /// strain limit where deformation stops.
+        #[test]
+        fn path_polynomials_equal_the_series(
+            g in prop::array::uniform4(-0.3f64..0.3), v in prop::array::uniform2(-5.0f64..5.0),
+            d in prop::array::uniform2(-40.0f64..40.0), dt in -15.0f64..15.0,
+        ) {
+            let deformation = Deformation {
+                centre: [0.0, 0.0],
+                velocity: v,
+                gradient: [[g[0], g[1]], [g[2], g[3]]],
+                t0_us: 0,
+            };
+            let paths = deformation.paths(15.0, 40.0);
+            let (fast, series) = (paths.undeform(d, dt), deformation.undeform_by_series(d, dt));
+            for k in 0..2 {
+                prop_assert!((fast[k] - series[k]).abs() < 1e-9 * (1.0 + series[k].abs()),
+                    "{fast:?} vs {series:?}");
             }
         }
     }
