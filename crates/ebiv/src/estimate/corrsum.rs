@@ -287,35 +287,36 @@ impl SumOfCorrelation {
         if let Some(k) = shared {
             let times = (s1_start, s2_start + p.slab_us);
             let bin = (p.slab_us + p.tau_us, slices + k);
-            scratch.bin(slab, window, times, bin, count, deformation.as_ref(), 0);
-        } else if let Some([ax, ay]) = shift {
-            // S1 moved forward by half the predicted displacement, S2 back by half.
+            scratch.bin(
+                slab,
+                window,
+                times,
+                bin,
+                count,
+                deformation.as_ref(),
+                None,
+                0,
+            );
+        } else {
+            // With the sub-pixel shift S1's events move forward by half the predicted
+            // displacement's rest, S2's back by it.
+            let rest = |sign: f32| shift.map(|a| a.map(|v| sign * v));
             let windows = [
                 (
                     window.shifted(-offsets[0][0], -offsets[0][1]),
                     s1_start,
-                    [ax, ay],
+                    rest(1.0),
                 ),
                 (
                     window.shifted(offsets[1][0], offsets[1][1]),
                     s2_start,
-                    [-ax, -ay],
+                    rest(-1.0),
                 ),
             ];
-            for (k, (w, start, shift)) in windows.iter().enumerate() {
-                let times = (*start, start + p.slab_us);
+            for (k, (w, start, rest)) in windows.into_iter().enumerate() {
+                let times = (start, start + p.slab_us);
                 let bin = (p.slab_us, slices);
-                scratch.bin_shifted(slab, w, times, bin, count, deformation.as_ref(), *shift, k);
-            }
-        } else {
-            let windows = [
-                (window.shifted(-offsets[0][0], -offsets[0][1]), s1_start),
-                (window.shifted(offsets[1][0], offsets[1][1]), s2_start),
-            ];
-            for (k, (w, start)) in windows.iter().enumerate() {
-                let times = (*start, start + p.slab_us);
-                let bin = (p.slab_us, slices);
-                scratch.bin(slab, w, times, bin, count, deformation.as_ref(), k);
+                scratch.bin(slab, &w, times, bin, count, deformation.as_ref(), rest, k);
             }
         }
         let (a, b) = match shared {
@@ -592,7 +593,10 @@ impl CorrSumScratch {
     }
 
     /// Voxelise the events of `window` in `[from, to)` (deformed by the predictor, if any)
-    /// into `voxels[into]`, as `bin = (length µs, slices)` slices from `from`.
+    /// into `voxels[into]`, as `bin = (length µs, slices)` slices from `from`. With a `shift`
+    /// (px, [`CorrSumParams::subpixel_shift`]) every event is moved by it and its voxel
+    /// splatted at the resulting sub-pixel position ([`Voxeliser::add_splat`]); otherwise
+    /// events are rounded to their nearest pixel.
     #[allow(clippy::too_many_arguments)]
     fn bin(
         &mut self,
@@ -602,51 +606,33 @@ impl CorrSumScratch {
         (length_us, slices): (i64, usize),
         count: bool,
         deformation: Option<&Deformation>,
+        shift: Option<[f32; 2]>,
         into: usize,
     ) {
         let voxeliser = &mut self.voxeliser;
-        voxeliser.begin(length_us, slices, count);
-        match deformation {
-            Some(d) => {
-                self.events.clear();
-                slab.gather_deformed(window, from, to, from, d, &mut self.events);
-                let e = &self.events;
-                for ((&x, &y), &t) in e.x.iter().zip(&e.y).zip(&e.t) {
-                    voxeliser.add(x, y, t);
-                }
-            }
+        match shift {
+            Some(_) => voxeliser.begin_splat(length_us, slices, count),
+            None => voxeliser.begin(length_us, slices, count),
+        }
+        if deformation.is_none() && shift.is_none() {
             // Raw events sit on pixels inside the window, at or after `from`.
-            None => slab.visit(window, from, to, from, |x, y, t| {
+            slab.visit(window, from, to, from, |x, y, t| {
                 voxeliser.add_pixel(x as usize, y as usize, t)
-            }),
-        }
-        voxeliser.finish(&mut self.voxels[into]);
-    }
-
-    /// Like [`CorrSumScratch::bin`], with every event moved by `shift` px and its voxel
-    /// splatted at the resulting sub-pixel position ([`Voxeliser::add_splat`]).
-    #[allow(clippy::too_many_arguments)]
-    fn bin_shifted(
-        &mut self,
-        slab: &Slab,
-        window: &Window,
-        (from, to): (i64, i64),
-        (length_us, slices): (i64, usize),
-        count: bool,
-        deformation: Option<&Deformation>,
-        [ax, ay]: [f32; 2],
-        into: usize,
-    ) {
-        let voxeliser = &mut self.voxeliser;
-        voxeliser.begin_splat(length_us, slices, count);
-        self.events.clear();
-        match deformation {
-            Some(d) => slab.gather_deformed(window, from, to, from, d, &mut self.events),
-            None => slab.gather(window, from, to, from, &mut self.events),
-        }
-        let e = &self.events;
-        for ((&x, &y), &t) in e.x.iter().zip(&e.y).zip(&e.t) {
-            voxeliser.add_splat(x + ax, y + ay, t);
+            });
+        } else {
+            self.events.clear();
+            match deformation {
+                Some(d) => slab.gather_deformed(window, from, to, from, d, &mut self.events),
+                None => slab.gather(window, from, to, from, &mut self.events),
+            }
+            let e = &self.events;
+            let events = e.x.iter().zip(&e.y).zip(&e.t);
+            match shift {
+                Some([ax, ay]) => {
+                    events.for_each(|((&x, &y), &t)| voxeliser.add_splat(x + ax, y + ay, t))
+                }
+                None => events.for_each(|((&x, &y), &t)| voxeliser.add(x, y, t)),
+            }
         }
         voxeliser.finish(&mut self.voxels[into]);
     }
