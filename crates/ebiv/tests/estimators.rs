@@ -214,3 +214,37 @@ core_radius = 25.0"#;
     println!("Lamb–Oseen, motion single 32 px: {single}\nLamb–Oseen, motion 64→32 px: {multi}");
     assert!(multi.rms < single.rms, "single {single}\nmulti {multi}");
 }
+
+/// With deformation removing the rotation's gradient and curvature, the delay τ is no longer
+/// bound by decorrelation: at τ = 8 ms (T = 10 ms) the same displacement error is a 2.7×
+/// smaller velocity error. Sum of correlation with sub-pixel event positions and count
+/// weighting then comes near the issue's DVR ≥ 350 on the turntable, but not for every
+/// recording: seeds 12, 13, 14 give DVR 405, 281, 271 (at the paper's τ = 3 ms the same
+/// settings give about 240 for seed 12, and τ = 8 ms with rounded binary voxels RMS 0.0165
+/// px/ms). A handful of windows carry most of the RMS: at the sensor's border, where the
+/// ±13 px window offsets of the fastest (3.2 px/ms) corners leave the sensor, and near the
+/// rotation's centre, where slow particles give only 20–50 events. The first pass's search
+/// radius (21 px of a 64 px window) covers 2.6 px/ms at this delay; faster windows are found
+/// from their neighbours' prediction in the second pass.
+#[test]
+fn turntable_dvr_with_a_long_delay() {
+    let flow = "type = \"solid_body\"\ncentre = [127.5, 127.5]\nomega = 0.02";
+    let estimator = SumOfCorrelation::new(CorrSumParams {
+        tau_us: 8_000,
+        subpixel_shift: true,
+        weighting: ebiv::estimate::corrsum::Weighting::Count,
+        ..CorrSumParams::default()
+    })
+    .unwrap();
+    let passes = [(64, 32), (32, 16)];
+    for seed in [12, 13, 14] {
+        let (sim, events) = scenario(flow, "40ms", seed);
+        let e = errors(
+            &process(&estimator, &sim, &events, &passes, &FIELD_TIMES),
+            &sim,
+        );
+        println!("turntable seed {seed}, corrsum 64→32 px, τ = 8 ms, sub-pixel, counts: {e}");
+        assert!(e.dvr() >= 230.0, "seed {seed}: {e}");
+        assert!(e.valid_share() >= 0.99, "seed {seed}: {e}");
+    }
+}
