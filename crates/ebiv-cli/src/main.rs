@@ -19,8 +19,8 @@ use std::process::ExitCode;
 struct Cli {
     /// Worker threads for the parallel work (windows, simulator bands, figures). Default:
     /// one per core, or the RAYON_NUM_THREADS environment variable. Results are the same for
-    /// any number of threads.
-    #[arg(long, global = true, value_name = "N", value_parser = clap::value_parser!(u16).range(1..))]
+    /// any number of threads (1 to 1024).
+    #[arg(long, global = true, value_name = "N", value_parser = clap::value_parser!(u16).range(1..=1024))]
     threads: Option<u16>,
     #[command(subcommand)]
     command: Command,

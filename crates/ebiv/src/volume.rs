@@ -197,6 +197,15 @@ impl AffinePaths {
             }
             current = following;
         }
+        // Gradients so large that the coefficients overflow move no event (all exceed
+        // MAX_STRAIN but those at dt = 0, which an infinite rate leaves in place too).
+        if paths.coefficients[..paths.terms]
+            .iter()
+            .flatten()
+            .any(|c| !c.is_finite())
+        {
+            paths.strain_rate = f64::INFINITY;
+        }
         paths
     }
 
@@ -243,7 +252,8 @@ fn candidate_range(t: &[i64], start_us: i64, end_us: i64) -> std::ops::Range<usi
     // A branch-free fold, so the check costs about one compare per event.
     let sorted = t.windows(2).fold(true, |ok, w| ok & (w[0] <= w[1]));
     if sorted {
-        t.partition_point(|&v| v < start_us)..t.partition_point(|&v| v < end_us)
+        let from = t.partition_point(|&v| v < start_us);
+        from..t.partition_point(|&v| v < end_us).max(from)
     } else {
         0..t.len()
     }
@@ -289,8 +299,11 @@ impl Slab {
         let candidates = candidate_range(&t[..n], start_us, end_us);
         // Tile column of every pixel column and first tile of every pixel row, so the filter
         // below needs no division.
-        let tile_column: Vec<u32> = (0..geometry.width).map(|c| c / tile).collect();
-        let tile_row: Vec<u32> = (0..geometry.height).map(|r| r / tile * tiles_x).collect();
+        // (Coordinates are u16: no more entries than that, whatever a header declares.)
+        let tile_column: Vec<u32> = (0..geometry.width.min(1 << 16)).map(|c| c / tile).collect();
+        let tile_row: Vec<u32> = (0..geometry.height.min(1 << 16))
+            .map(|r| r / tile * tiles_x)
+            .collect();
         // Tile of every candidate, `SKIPPED` for events outside the interval, the sensor or
         // the polarity selection: the filter runs once, the scatter pass reads the tiles.
         let r = candidates.clone();
@@ -449,8 +462,10 @@ impl Slab {
         let cx = deformation.centre[0] - window.x0 as f64;
         let cy = deformation.centre[1] - window.y0 as f64;
         // The events' largest |dt| and offset from the centre bound the paths' truncation.
-        let max_dt_ms = [t_from, t_to]
-            .map(|t| ((t - deformation.t0_us) as f64 / 1000.0).abs())
+        // Event times lie within the slab as well as in [t_from, t_to).
+        let (from, to) = (t_from.max(self.start_us), t_to.min(self.end_us));
+        let max_dt_ms = [from, to]
+            .map(|t| (t.saturating_sub(deformation.t0_us) as f64 / 1000.0).abs())
             .into_iter()
             .fold(0.0, f64::max);
         let reach = [cx, cy, window.width as f64 - cx, window.height as f64 - cy]

@@ -124,10 +124,10 @@ pub struct ProcessArgs {
     /// maximum before the sub-pixel fit, against peak locking (default 1; 0 = off).
     #[arg(long, value_name = "PX")]
     pub peak_smoothing: Option<f64>,
-    /// corrsum, multi-pass: keep the events' positions sub-pixel when the windows are
-    /// shifted and deformed by the predictor (3×3 spread voxels instead of rounding to
-    /// pixels): lower random error (simulated turntable RMS 0.027 → 0.016 px/ms), about twice
-    /// the processing time of the later passes.
+    /// corrsum: keep the events' positions sub-pixel wherever a predictor shifts and deforms
+    /// the windows (later passes, repeated last pass, secondary-peak re-evaluation; 3×3
+    /// spread voxels instead of rounding to pixels): lower random error (simulated turntable
+    /// RMS 0.027 → 0.016 px/ms), about twice the processing time of those passes.
     #[arg(long)]
     pub subpixel_shift: bool,
     /// motion: how the contrast maximum is found: newton (analytic gradient and Hessian from

@@ -179,8 +179,9 @@ output = "flow.nc"              # .nc, .csv, .npz, .dat (Tecplot) or .vtk
 #                               # (default: gauss2d for corrsum, gauss3 for motion)
 # peak-smoothing = 1.0          # corrsum: Gaussian σ (px) smoothing the plane near its peak
 #                               # before the fit, against peak locking; 0 = off
-# subpixel-shift = false        # corrsum, multi-pass: keep shifted/deformed event positions
-#                               # sub-pixel (lower random error, ~2x the later passes' time)
+# subpixel-shift = false        # corrsum: keep event positions sub-pixel where a predictor
+#                               # shifts/deforms the windows (lower random error, ~2x the
+#                               # time of those passes)
 # motion-search = "newton"      # motion: newton (default, ~4 evaluations per window) or grid
 #                               # (the paper's coarse grid + 5x5 refinement)
 # search-range = 4.0            # motion: half-width of the velocity search, px/ms

@@ -262,8 +262,9 @@ impl SumOfCorrelation {
     /// Compute the normalised, summed correlation plane of `window`'s events around `t0_us`
     /// with the integer window offset `[s1, s2]` per axis (S1 window moved by `−s1`, S2 by
     /// `+s2`) and, if given, the sub-pixel shift of the events (S1 by `+a`, S2 by `−a`,
-    /// [`CorrSumParams::subpixel_shift`]) into `scratch.plane`, and return the event count and the index of the plane's
-    /// maximum (`None`: no value above −∞), or the window's invalid estimate.
+    /// [`CorrSumParams::subpixel_shift`]) into `scratch.plane`, and return the event count
+    /// and the index of the plane's maximum (`None`: no value above −∞), or the window's
+    /// invalid estimate.
     fn correlation_plane(
         &self,
         slab: &Slab,
@@ -497,10 +498,10 @@ impl Estimator for SumOfCorrelation {
         }
         let [px, py] = refine_with_kernel(&scratch.plane, [pw, ph], &peak, &self.smoothing, fit);
         // The displacement removed before correlating: the window offsets plus, with the
-        // sub-pixel shift, the rest of the predicted displacement.
-        let removed = |axis: usize| match (shift, predicted_px) {
-            (Some(_), Some(d)) => d[axis],
-            _ => (offsets[0][axis] + offsets[1][axis]) as f64,
+        // sub-pixel shift, twice the rest moved in each sub-volume.
+        let removed = |axis: usize| {
+            let rest = shift.map_or(0.0, |a| 2.0 * f64::from(a[axis]));
+            (offsets[0][axis] + offsets[1][axis]) as f64 + rest
         };
         let dx = removed(0) + px - shape.rx as f64;
         let dy = removed(1) + py - shape.ry as f64;

@@ -327,6 +327,29 @@ fn window_offsets_leave_at_most_half_a_pixel() {
     assert_eq!(window_offsets([f64::NAN, 4.0]), [[0, 2], [0, 2]]);
 }
 
+/// The sub-pixel shift's split moves both windows by the same whole pixels and removes the
+/// predicted displacement exactly: 2s + 2a = d with |a| ≤ ½ (ties of d/2 at k + ½ round away
+/// from zero).
+#[test]
+fn symmetric_shift_removes_the_predicted_displacement() {
+    for &d in &[
+        -7.6, -3.0, -1.0, -0.4, 0.0, 0.5, 1.0, 1.49, 2.5, 3.0, 18.3, 17.7,
+    ] {
+        let (s, a) = symmetric_shift([d, -d]);
+        for axis in 0..2 {
+            let want = if axis == 0 { d } else { -d };
+            assert_eq!(s[0][axis], s[1][axis], "{d}: {s:?}");
+            assert!(a[axis].abs() <= 0.5, "{d}: {a:?}");
+            let removed = 2.0 * (s[0][axis] as f64 + f64::from(a[axis]));
+            assert!((removed - want).abs() < 1e-6, "{d}: {s:?} {a:?}");
+        }
+    }
+    // Far beyond any sensor, clamped instead of overflowing.
+    let (s, a) = symmetric_shift([1e300, -1e300]);
+    assert_eq!(s, [[500_000, -500_000], [500_000, -500_000]]);
+    assert_eq!(a, [0.0, 0.0]);
+}
+
 #[test]
 fn parameters_validate_and_deserialise() {
     assert!(CorrSumParams::default().validate().is_ok());

@@ -134,7 +134,7 @@ pub(super) struct Voxeliser {
     slices: usize,
     count: bool,
     slice_events: Vec<usize>,
-    /// Sub-pixel mode ([`Voxeliser::add_splat`]): bilinear weights of the voxels,
+    /// Sub-pixel mode ([`Voxeliser::add_splat`]): the splat weights of the voxels,
     /// `[slice][row][column]`, and the occupancy bitmaps and row masks of the pixels they
     /// reach (`bits` and `rows` then only deduplicate the voxels).
     weights: Vec<f64>,
@@ -239,7 +239,9 @@ impl Voxeliser {
     /// centre: the occupancy image resampled at positions shifted by a fraction of a pixel,
     /// as PIV window deformation resamples its images (Scarano 2002, Meas. Sci. Technol.
     /// 13:R1), so that a predicted displacement is removed exactly instead of to the
-    /// nearest pixel. Weights falling outside the window are dropped.
+    /// nearest pixel. Weights falling outside the window are dropped. With count weighting
+    /// every event is spread from its own position, so a voxel's total weight is its event
+    /// count.
     #[inline]
     pub fn add_splat(&mut self, x: f32, y: f32, t: f32) {
         let (xf, yf) = (x + 0.5, y + 0.5);
