@@ -94,6 +94,85 @@ pub fn ln(x: f64) -> f64 {
     (ef * LN2_HI + LN_NODE[j]) + (r + (tail + ef * LN2_LO))
 }
 
+/// [`exp`] of every lane, bit for bit: the same operations lane by lane, without branches
+/// (the integer steps written with wrapping unsigned arithmetic that keeps the same bits), so
+/// that the compiler may pack several lanes into one vector instruction. Lanes outside the
+/// fast range are redone by [`exp`].
+#[inline(always)]
+pub fn exp_lanes<const N: usize>(x: [f64; N]) -> [f64; N] {
+    let mut out = [0.0; N];
+    let mut all_in_range = true;
+    for (o, &x) in out.iter_mut().zip(&x) {
+        all_in_range &= x.abs() < 708.0;
+        let kd = x * INV_LN2_64 + SHIFT;
+        let ki = kd.to_bits();
+        let kd = kd - SHIFT;
+        let r = (x - kd * LN2_64_HI) - kd * LN2_64_LO;
+        let j = (ki & 63) as usize;
+        // Bits 6..17 of `k = (ki & (2^52 − 1)) − 2^51` as the exponent field, as in `exp`.
+        let k = (ki & ((1 << 52) - 1)).wrapping_sub(1 << 51);
+        let scale = f64::from_bits(EXP2_TABLE[j].to_bits().wrapping_add((k >> 6) << 52));
+        let r2 = r * r;
+        let p = r + r2 * (0.5 + r * (1.0 / 6.0) + r2 * (1.0 / 24.0 + r * (1.0 / 120.0)));
+        *o = scale + scale * p;
+    }
+    if !all_in_range {
+        fix_lanes(&x, &mut out, |x| x.abs() < 708.0, exp);
+    }
+    out
+}
+
+/// [`ln`] of every lane, bit for bit, written like [`exp_lanes`]; lanes that are not positive
+/// normal numbers are redone by [`ln`].
+#[inline(always)]
+pub fn ln_lanes<const N: usize>(x: [f64; N]) -> [f64; N] {
+    let mut out = [0.0; N];
+    let mut all_normal = true;
+    for (o, &x) in out.iter_mut().zip(&x) {
+        let bits = x.to_bits();
+        let biased = bits >> 52;
+        all_normal &= biased.wrapping_sub(1) < 0x7FE;
+        let mantissa = bits & ((1 << 52) - 1);
+        let j = ((mantissa + (1 << 44)) >> 45) as usize;
+        let m = f64::from_bits(mantissa | (1023 << 52));
+        let r = m * LN_INV_NODE[j] - 1.0;
+        let r2 = r * r;
+        let tail = r2 * (-0.5 + r * (1.0 / 3.0) + r2 * (-0.25 + r * 0.2 + r2 * (-1.0 / 6.0)));
+        // `biased − 1023` exactly (both terms are integers below 2^53), without an
+        // integer-to-float conversion.
+        let ef = f64::from_bits(0x4330_0000_0000_0000 | biased) - (SHIFT_INT + 1023.0);
+        *o = (ef * LN2_HI + LN_NODE[j]) + (r + (tail + ef * LN2_LO));
+    }
+    if !all_normal {
+        fix_lanes(
+            &x,
+            &mut out,
+            |x| (x.to_bits() >> 52).wrapping_sub(1) < 0x7FE,
+            ln,
+        );
+    }
+    out
+}
+
+/// `2^52`: a float with this exponent holds an integer below 2^52 in its mantissa bits.
+const SHIFT_INT: f64 = 4_503_599_627_370_496.0;
+
+/// Redo with `f` the lanes of `out` whose argument is not `fast`.
+#[cold]
+#[inline(never)]
+fn fix_lanes<const N: usize>(
+    x: &[f64; N],
+    out: &mut [f64; N],
+    fast: impl Fn(f64) -> bool,
+    f: fn(f64) -> f64,
+) {
+    for (o, &x) in out.iter_mut().zip(x) {
+        if !fast(x) {
+            *o = f(x);
+        }
+    }
+}
+
 /// `v.floor() as i64` without a library call (the baseline x86-64 target has no rounding
 /// instruction, so `floor` is a call into `libm`): the same value for every `v`, NaN giving 0
 /// and values beyond the range of `i64` saturating.
@@ -187,6 +266,40 @@ impl Erf {
         } else {
             v
         }
+    }
+}
+
+impl Erf {
+    /// [`Erf::eval`] of every lane, bit for bit: the same operations lane by lane, with
+    /// selections instead of branches (lanes outside `[−6, 6]` evaluate the polynomial of
+    /// node 0 and discard it), so that the compiler may pack lanes into vector instructions.
+    #[inline(always)]
+    pub fn eval_lanes<const N: usize>(&self, x: [f64; N]) -> [f64; N] {
+        let table = &self.0 .0;
+        let mut out = [0.0; N];
+        for (o, &x) in out.iter_mut().zip(&x) {
+            let a = x.abs();
+            let inside = a < ERF_LIMIT;
+            let at = if inside { a } else { 0.0 };
+            // `at < 6`: the node index is at most 192, the last of the table.
+            let j = (at * ERF_NODES_PER_UNIT + 0.5) as i32;
+            let d = at - j as f64 * (1.0 / ERF_NODES_PER_UNIT);
+            let c = &table[(j as usize).min(table.len() - 1)];
+            let d2 = d * d;
+            let d4 = d2 * d2;
+            let poly = (c[0] + d * c[1] + d2 * (c[2] + d * c[3]))
+                + d4 * ((c[4] + d * c[5]) + d2 * (c[6] + d * c[7]));
+            // NaN stays NaN, unsigned, as in `eval`.
+            let v = if inside {
+                poly
+            } else if a >= ERF_LIMIT {
+                1.0
+            } else {
+                x
+            };
+            *o = if x < 0.0 { -v } else { v };
+        }
+        out
     }
 }
 
@@ -543,6 +656,49 @@ mod tests {
                 .wrapping_add(1_442_695_040_888_963_407);
             lo + (hi - lo) * ((state >> 11) as f64 / (1u64 << 53) as f64)
         })
+    }
+
+    #[test]
+    fn lane_functions_give_the_scalar_bits() {
+        let mut values: Vec<f64> = points(-750.0, 750.0, 4000)
+            .chain(points(-1.0, 1.0, 4000))
+            .chain(points(0.0, 1e-300, 100))
+            .collect();
+        values.extend([
+            0.0,
+            -0.0,
+            1.0,
+            -1.0,
+            f64::MIN_POSITIVE,
+            5e-324,
+            f64::MAX,
+            f64::INFINITY,
+            f64::NEG_INFINITY,
+            f64::NAN,
+            707.9,
+            708.0,
+            709.5,
+            -708.0,
+            -745.0,
+        ]);
+        values.resize(values.len().next_multiple_of(8), 2.0);
+        let erf = Erf::new();
+        for chunk in values.chunks_exact(8) {
+            let x: [f64; 8] = chunk.try_into().unwrap();
+            let (e, l) = (exp_lanes(x), ln_lanes(x));
+            let small = x.map(|v| v / 100.0);
+            let f = erf.eval_lanes(small);
+            for k in 0..8 {
+                assert_eq!(
+                    f[k].to_bits(),
+                    erf.eval(small[k]).to_bits(),
+                    "erf({})",
+                    small[k]
+                );
+                assert_eq!(e[k].to_bits(), exp(x[k]).to_bits(), "exp({})", x[k]);
+                assert_eq!(l[k].to_bits(), ln(x[k]).to_bits(), "ln({})", x[k]);
+            }
+        }
     }
 
     #[test]

@@ -19,6 +19,9 @@ const MAX_SIDE: u32 = 1 << 16;
 /// Most pixels [`SensorBand::try_new`] accepts in one band (64 bytes of state each).
 const MAX_BAND_PIXELS: u64 = 1 << 26;
 
+/// New samples prepared together by [`StepContext::prepare_lanes`].
+const PREPARE_LANES: usize = 8;
+
 /// Sub-seed labels for the temporal random streams (one [`Stream::Temporal`] generator per
 /// pixel or row and per label, so that no two draws share a generator).
 pub(super) const TAG_JITTER: u64 = 0x4A49_5454;
@@ -328,8 +331,16 @@ impl SensorBand {
         let mut updates = self.changed.len() as u64;
         let ramps = &mut self.ramps;
         ramps.clear();
-        ramps.extend(self.changed.iter().map(|&(local, irr)| {
-            StepContext::prepare(ctx.response, &pixels[local as usize], irr, tb - ta)
+        let dt = tb - ta;
+        let mut batches = self.changed.chunks_exact(PREPARE_LANES);
+        for batch in &mut batches {
+            let old: [f32; PREPARE_LANES] =
+                std::array::from_fn(|k| pixels[batch[k].0 as usize].irr);
+            let new: [f32; PREPARE_LANES] = std::array::from_fn(|k| batch[k].1);
+            ramps.extend(StepContext::prepare_lanes(ctx.response, old, new, dt));
+        }
+        ramps.extend(batches.remainder().iter().map(|&(local, irr)| {
+            StepContext::prepare(ctx.response, &pixels[local as usize], irr, dt)
         }));
         for (&(local, _), ramp) in self.changed.iter().zip(ramps.iter()) {
             let i = local as usize;

@@ -223,6 +223,31 @@ impl StepContext<'_> {
         }
     }
 
+    /// [`StepContext::prepare`] of `N` new samples `irr` for pixels whose previous irradiances
+    /// are `old`, bit for bit: the same operations lane by lane, without branches that differ
+    /// between lanes, so that the compiler may pack lanes into vector instructions.
+    #[inline(always)]
+    pub(super) fn prepare_lanes<const N: usize>(
+        r: &Response,
+        old: [f32; N],
+        irr: [f32; N],
+        dt: f64,
+    ) -> [Ramp; N] {
+        let irr = irr.map(clean_irradiance);
+        let u = r.log_lanes(irr);
+        let mut omega = [0.0; N];
+        for ((w, &a), &b) in omega.iter_mut().zip(&old).zip(&irr) {
+            *w = r.omega(0.5 * (a as f64 + b as f64));
+        }
+        let decay = fastmath::exp_lanes(omega.map(|w| -(w * dt)));
+        std::array::from_fn(|k| Ramp {
+            u: u[k],
+            omega: omega[k],
+            decay: decay[k],
+            irr: irr[k],
+        })
+    }
+
     /// The common case of [`StepContext::step`] with a new sample, done without a call: a
     /// pixel with the low-pass on, up to date at `ta`, not blind, whose `L` neither reaches a
     /// level during the ramp over `[ta, tb]` nor can (input and output inside both levels,

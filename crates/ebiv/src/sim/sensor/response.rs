@@ -92,6 +92,29 @@ impl Response {
         }
     }
 
+    /// [`Response::log`] of every lane, bit for bit, in lane-wise arithmetic
+    /// ([`fastmath::ln_lanes`]) that the compiler may vectorise.
+    #[inline(always)]
+    pub fn log_lanes<const N: usize>(&self, i: [f32; N]) -> [f64; N] {
+        let i = i.map(|v| v as f64);
+        if self.knee > 0.0 {
+            let knee = self.knee;
+            // Lanes below the knee take the tangent line; their logarithm is not used.
+            let ln = fastmath::ln_lanes(i.map(|v| if v >= knee { v } else { knee }));
+            let mut out = [0.0; N];
+            for ((o, &v), &l) in out.iter_mut().zip(&i).zip(&ln) {
+                *o = if v >= knee {
+                    l
+                } else {
+                    self.ln_knee + (v - knee) / knee
+                };
+            }
+            out
+        } else {
+            fastmath::ln_lanes(i.map(|v| v + self.eps))
+        }
+    }
+
     /// Whether the photoreceptor low-pass is on.
     #[inline]
     pub fn low_pass(&self) -> bool {
