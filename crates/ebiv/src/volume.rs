@@ -569,6 +569,33 @@ mod tests {
         );
     }
 
+    /// Odd intervals give empty or whole slabs, never a panic: a reversed interval, and a
+    /// deformed gather over all of time.
+    #[test]
+    fn reversed_and_unbounded_intervals() {
+        let (t, x, y, p) = ([10i64, 20, 30], [1u16, 2, 3], [1u16, 2, 3], [1u8, 1, 1]);
+        let geometry = Geometry::new(8, 8);
+        let reversed = Slab::build(&t, &x, &y, &p, geometry, 25, 15, PolaritySelection::Both, 4);
+        assert!(reversed.is_empty());
+        let slab = Slab::build(&t, &x, &y, &p, geometry, 0, 100, PolaritySelection::Both, 4);
+        let window = Window {
+            x0: 0,
+            y0: 0,
+            width: 8,
+            height: 8,
+        };
+        let d = Deformation {
+            centre: [4.0, 4.0],
+            velocity: [1.0, 0.0],
+            gradient: [[0.0, -0.02], [0.02, 0.0]],
+            t0_us: 20,
+        };
+        let mut out = WindowEvents::default();
+        slab.gather_deformed(&window, i64::MIN, i64::MAX, 20, &d, &mut out);
+        assert_eq!(out.len(), 3);
+        assert!(out.x.iter().chain(&out.y).all(|v| v.is_finite()));
+    }
+
     #[test]
     fn deformation_inverts_affine_paths() {
         // Shear, strain and rotation plus translation: p moves along dx/dt = v_c + G (x − c),
