@@ -81,6 +81,13 @@ pub fn ln(x: f64) -> f64 {
         return x.ln();
     }
     let e = biased as i64 - 1023;
+    ln_of_normal(bits, e as f64)
+}
+
+/// `ln x` of a positive normal `x` given by its `bits` and unbiased exponent `ef`: the
+/// common part of [`ln`] and [`ln_lanes`].
+#[inline(always)]
+fn ln_of_normal(bits: u64, ef: f64) -> f64 {
     let mantissa = bits & ((1 << 52) - 1);
     // The nearest node 1 + j/128 to the mantissa m ∈ [1, 2).
     let j = ((mantissa + (1 << 44)) >> 45) as usize;
@@ -90,7 +97,6 @@ pub fn ln(x: f64) -> f64 {
     let r = m * LN_INV_NODE[j] - 1.0;
     let r2 = r * r;
     let tail = r2 * (-0.5 + r * (1.0 / 3.0) + r2 * (-0.25 + r * 0.2 + r2 * (-1.0 / 6.0)));
-    let ef = e as f64;
     (ef * LN2_HI + LN_NODE[j]) + (r + (tail + ef * LN2_LO))
 }
 
@@ -132,16 +138,10 @@ pub fn ln_lanes<const N: usize>(x: [f64; N]) -> [f64; N] {
         let bits = x.to_bits();
         let biased = bits >> 52;
         all_normal &= biased.wrapping_sub(1) < 0x7FE;
-        let mantissa = bits & ((1 << 52) - 1);
-        let j = ((mantissa + (1 << 44)) >> 45) as usize;
-        let m = f64::from_bits(mantissa | (1023 << 52));
-        let r = m * LN_INV_NODE[j] - 1.0;
-        let r2 = r * r;
-        let tail = r2 * (-0.5 + r * (1.0 / 3.0) + r2 * (-0.25 + r * 0.2 + r2 * (-1.0 / 6.0)));
         // `biased − 1023` exactly (both terms are integers below 2^53), without an
         // integer-to-float conversion.
         let ef = f64::from_bits(0x4330_0000_0000_0000 | biased) - (SHIFT_INT + 1023.0);
-        *o = (ef * LN2_HI + LN_NODE[j]) + (r + (tail + ef * LN2_LO));
+        *o = ln_of_normal(bits, ef);
     }
     if !all_normal {
         fix_lanes(
