@@ -527,6 +527,16 @@ mod tests {
         v
     }
 
+    /// The `size` × `size` window at the sensor's top-left corner.
+    fn square_window(size: u32) -> Window {
+        Window {
+            x0: 0,
+            y0: 0,
+            width: size,
+            height: size,
+        }
+    }
+
     #[test]
     fn deformation_removes_a_velocity_gradient() {
         // Two events of a shear flow u = 0.1·(y − 10): one at y = 20 (u = 1) seen 2 ms after
@@ -546,12 +556,7 @@ mod tests {
             PolaritySelection::Both,
             8,
         );
-        let window = Window {
-            x0: 0,
-            y0: 0,
-            width: 32,
-            height: 32,
-        };
+        let window = square_window(32);
         let d = Deformation {
             centre: [10.0, 10.0],
             velocity: [0.0, 0.0],
@@ -578,12 +583,7 @@ mod tests {
         let reversed = Slab::build(&t, &x, &y, &p, geometry, 25, 15, PolaritySelection::Both, 4);
         assert!(reversed.is_empty());
         let slab = Slab::build(&t, &x, &y, &p, geometry, 0, 100, PolaritySelection::Both, 4);
-        let window = Window {
-            x0: 0,
-            y0: 0,
-            width: 8,
-            height: 8,
-        };
+        let window = square_window(8);
         let d = Deformation {
             centre: [4.0, 4.0],
             velocity: [1.0, 0.0],

@@ -199,15 +199,11 @@ impl Voxeliser {
             }
         }
         self.count = count;
-        let need = self.slices * self.h * self.words;
-        if self.bits.len() < need {
-            self.bits.resize(need, 0);
-        }
-        if self.rows.len() < self.slices * self.row_words {
-            self.rows.resize(self.slices * self.row_words, 0);
-        }
-        if count && self.counts.len() < self.slices * self.h * self.w {
-            self.counts.resize(self.slices * self.h * self.w, 0);
+        let (bitmap, row_masks, voxels) = self.buffer_sizes();
+        grow(&mut self.bits, bitmap);
+        grow(&mut self.rows, row_masks);
+        if count {
+            grow(&mut self.counts, voxels);
         }
         self.slice_events.clear();
         self.slice_events.resize(self.slices, 0);
@@ -219,16 +215,21 @@ impl Voxeliser {
     pub fn begin_splat(&mut self, slab_us: i64, slices: usize, count: bool) {
         self.begin(slab_us, slices, count);
         self.splat = true;
-        let need = self.slices * self.h * self.words;
-        if self.target_bits.len() < need {
-            self.target_bits.resize(need, 0);
-        }
-        if self.target_rows.len() < self.slices * self.row_words {
-            self.target_rows.resize(self.slices * self.row_words, 0);
-        }
-        if self.weights.len() < self.slices * self.h * self.w {
-            self.weights.resize(self.slices * self.h * self.w, 0.0);
-        }
+        let (bitmap, row_masks, voxels) = self.buffer_sizes();
+        grow(&mut self.target_bits, bitmap);
+        grow(&mut self.target_rows, row_masks);
+        grow(&mut self.weights, voxels);
+    }
+
+    /// Lengths of the bitmaps, the row masks and the per-voxel arrays of the current
+    /// sub-volume.
+    fn buffer_sizes(&self) -> (usize, usize, usize) {
+        let per_slice = |n: usize| self.slices * n;
+        (
+            per_slice(self.h * self.words),
+            per_slice(self.row_words),
+            per_slice(self.h * self.w),
+        )
     }
 
     /// Bin one event at the sub-pixel local position `(x, y)`, time `t` µs after the
@@ -431,6 +432,14 @@ impl Voxeliser {
             self.add(x, y, t);
         }
         self.finish(out);
+    }
+}
+
+/// Lengthen `buffer` with zeros to at least `len` (never shortened: the buffers are reused by
+/// windows of every size and stay zero where unused).
+fn grow<T: Default + Clone>(buffer: &mut Vec<T>, len: usize) {
+    if buffer.len() < len {
+        buffer.resize(len, T::default());
     }
 }
 
