@@ -274,10 +274,11 @@ fn wall_flow_default_passes_flag_under_2_percent() {
         .all(|(k, a)| a.status == plain[1][k].status));
 }
 
-/// `--subpixel-shift` (sum of correlation, default passes) on the real wall flow: accepted
-/// as flag and config key, and the field stays as close to the independent motion-compensation
-/// field as the default one and flags no more vectors (measured: 5 vs 9 of 576 flagged, median
-/// |Δv| from motion compensation 0.052 vs 0.056 px/ms).
+/// `--subpixel-shift` (sum of correlation, default passes) on the real wall flow, alone and
+/// with `--weighting count`: accepted as flags and config keys, and the field stays as close
+/// to the independent motion-compensation field as the default one and flags no more vectors
+/// (measured: 5 vs 9 of 576 flagged, median |Δv| from motion compensation 0.052 vs 0.056
+/// px/ms; with count weighting too: 5 flagged, 0.052 px/ms).
 #[test]
 fn wall_flow_with_subpixel_shift() {
     let Some(file) = data("ebiv/wallflow_slice2.npz") else {
@@ -291,10 +292,15 @@ fn wall_flow_with_subpixel_shift() {
         (flagged_count(&stdout(&o)), read_field_rows(&out))
     };
     let config = dir.path().join("shift.toml");
-    std::fs::write(&config, "subpixel-shift = true\n").unwrap();
+    std::fs::write(&config, "subpixel-shift = true\nweighting = \"count\"\n").unwrap();
     let (_, motion) = run("motion", "motion.csv", &[]);
     let (flagged_default, default) = run("corrsum", "default.csv", &[]);
     let (flagged, shifted) = run("corrsum", "shifted.csv", &["--subpixel-shift"]);
+    let (flagged_counted, counted) = run(
+        "corrsum",
+        "counted.csv",
+        &["--subpixel-shift", "--weighting", "count"],
+    );
     let (_, configured) = run(
         "corrsum",
         "configured.csv",
@@ -312,10 +318,14 @@ fn wall_flow_with_subpixel_shift() {
         d[d.len() / 2]
     };
     let (with, without) = (median_difference(&shifted), median_difference(&default));
+    let with_counts = median_difference(&counted);
     println!("subpixel shift: {flagged} flagged, median |Δv| {with:.4}; default: {flagged_default}, {without:.4}");
+    println!("subpixel shift and count weighting: {flagged_counted} flagged, median |Δv| {with_counts:.4}");
     assert!(flagged <= flagged_default, "{flagged} vs {flagged_default}");
     assert!(with <= without, "{with} vs {without}");
-    let same = shifted.iter().all(|(k, a)| {
+    assert!(flagged_counted <= flagged_default, "{flagged_counted}");
+    assert!(with_counts <= without, "{with_counts} vs {without}");
+    let same = counted.iter().all(|(k, a)| {
         let b = &configured[k];
         a.status == b.status && (a.u.is_nan() && b.u.is_nan() || a.u == b.u)
     });
@@ -396,6 +406,12 @@ fn init_writes_a_config_that_process_reads_and_checks() {
     ]);
     assert!(
         stderr(&o).contains("`gird` is not newton or grid"),
+        "{}",
+        stderr(&o)
+    );
+    let o = ebiv(&["process", "x.raw", "--weighting", "heavy"]);
+    assert!(
+        stderr(&o).contains("`heavy` is not binary or count"),
         "{}",
         stderr(&o)
     );

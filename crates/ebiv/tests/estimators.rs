@@ -97,8 +97,10 @@ fn peak_smoothing_reduces_peak_locking_of_half_pixel_displacements() {
 
 /// Solid-body rotation: the velocity gradient makes a window estimate refer to wherever its
 /// few particles are; deforming the events along the predictor's affine paths (later passes,
-/// the last one repeated) must remove most of that error. The issue's target, DVR ≥ 350, is
-/// not reached: with the exact (true) predictor the last pass itself gives RMS ≈ 0.03 px/ms
+/// the last one repeated) must remove most of that error. With the default options and 32 px
+/// windows the issue's DVR ≥ 350 is not reached (the options that reach it:
+/// `turntable_dvr_above_350_with_subpixel_events_and_counts`): with the exact (true)
+/// predictor the last pass gives RMS ≈ 0.03 px/ms
 /// here, about what both estimators give for a uniform flow oblique to the pixel grid
 /// (0.02–0.03 px/ms), so the bound is the measured DVR (115 corrsum with the peak smoothing,
 /// 119 motion) less a margin.
@@ -215,36 +217,51 @@ core_radius = 25.0"#;
     assert!(multi.rms < single.rms, "single {single}\nmulti {multi}");
 }
 
-/// With deformation removing the rotation's gradient and curvature, the delay τ is no longer
-/// bound by decorrelation: at τ = 8 ms (T = 10 ms) the same displacement error is a 2.7×
-/// smaller velocity error. Sum of correlation with sub-pixel event positions and count
-/// weighting then comes near the issue's DVR ≥ 350 on the turntable, but not for every
-/// recording: seeds 12, 13, 14 give DVR 405, 281, 271 (at the paper's τ = 3 ms the same
-/// settings give about 240 for seed 12, and τ = 8 ms with rounded binary voxels RMS 0.0165
-/// px/ms). A handful of windows carry most of the RMS: at the sensor's border, where the
-/// ±13 px window offsets of the fastest (3.2 px/ms) corners leave the sensor, and near the
-/// rotation's centre, where slow particles give only 20–50 events. The first pass's search
-/// radius (21 px of a 64 px window) covers 2.6 px/ms at this delay; faster windows are found
-/// from their neighbours' prediction in the second pass.
+/// The issue's dynamic velocity range, DVR ≥ 350 on the turntable (the paper reports 175),
+/// with the command line's default passes (64 → 40 px, step 32 → 20): sum of correlation
+/// with sub-pixel event positions and count weighting (`--subpixel-shift --weighting count`)
+/// at τ = 8 ms. Deformation removes the rotation's gradient and curvature, so τ is no longer
+/// bound by decorrelation and the same displacement error is a 2.7× smaller velocity error.
+/// Measured (seeds 12 / 13 / 14): DVR 607 / 641 / 537 at τ = 8 ms; at the paper's τ = 3 ms
+/// 412 / 430 / 294 with these options and 160 / 166 / 144 without them (printed; bound: the
+/// options cut the RMS by 30 %). With 32 px windows in the last pass (step 16) τ = 8 ms gives
+/// 423 / 295 / 257: random error falls with the number of events per window.
+/// The first pass's search radius (21 px of a 64 px window) covers 2.6 px/ms at τ = 8 ms;
+/// faster windows are found from their neighbours' prediction in the second pass.
 #[test]
-fn turntable_dvr_with_a_long_delay() {
+fn turntable_dvr_above_350_with_subpixel_events_and_counts() {
     let flow = "type = \"solid_body\"\ncentre = [127.5, 127.5]\nomega = 0.02";
-    let estimator = SumOfCorrelation::new(CorrSumParams {
-        tau_us: 8_000,
-        subpixel_shift: true,
-        weighting: ebiv::estimate::corrsum::Weighting::Count,
-        ..CorrSumParams::default()
-    })
-    .unwrap();
-    let passes = [(64, 32), (32, 16)];
+    let estimator = |tau_us, accurate: bool| {
+        SumOfCorrelation::new(CorrSumParams {
+            tau_us,
+            subpixel_shift: accurate,
+            weighting: if accurate {
+                ebiv::estimate::corrsum::Weighting::Count
+            } else {
+                ebiv::estimate::corrsum::Weighting::Binary
+            },
+            ..CorrSumParams::default()
+        })
+        .unwrap()
+    };
+    let passes = [(64, 32), (40, 20)];
     for seed in [12, 13, 14] {
         let (sim, events) = scenario(flow, "40ms", seed);
-        let e = errors(
-            &process(&estimator, &sim, &events, &passes, &FIELD_TIMES),
-            &sim,
+        let run = |tau_us, accurate| {
+            let e = estimator(tau_us, accurate);
+            errors(&process(&e, &sim, &events, &passes, &FIELD_TIMES), &sim)
+        };
+        let paper = run(3_000, false);
+        let short = run(3_000, true);
+        let long = run(8_000, true);
+        println!("turntable seed {seed}, corrsum 64→40 px, τ = 3 ms: {paper}");
+        println!("turntable seed {seed}, same, sub-pixel, counts: {short}");
+        println!("turntable seed {seed}, same, τ = 8 ms: {long}");
+        assert!(long.dvr() >= 350.0, "seed {seed}: {long}");
+        assert!(long.valid_share() >= 0.99, "seed {seed}: {long}");
+        assert!(
+            short.rms < 0.7 * paper.rms,
+            "seed {seed}: {short}\nvs\n{paper}"
         );
-        println!("turntable seed {seed}, corrsum 64→32 px, τ = 8 ms, sub-pixel, counts: {e}");
-        assert!(e.dvr() >= 230.0, "seed {seed}: {e}");
-        assert!(e.valid_share() >= 0.99, "seed {seed}: {e}");
     }
 }

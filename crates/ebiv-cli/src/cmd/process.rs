@@ -130,6 +130,12 @@ pub struct ProcessArgs {
     /// RMS 0.027 → 0.016 px/ms), about twice the processing time of those passes.
     #[arg(long)]
     pub subpixel_shift: bool,
+    /// corrsum: voxel value, binary (one per pixel and time slice holding any event, as in
+    /// the paper; the default) or count (its number of events): with --subpixel-shift,
+    /// count weighting lowers the random error further (simulated turntable, default passes,
+    /// τ = 3 ms: RMS 0.019 → 0.007–0.010 px/ms).
+    #[arg(long, value_name = "binary|count")]
+    pub weighting: Option<String>,
     /// motion: how the contrast maximum is found: newton (analytic gradient and Hessian from
     /// an event-pair vote, about four evaluations; the default) or grid (the paper's coarse
     /// grid and 5×5 refinement, 100–200 evaluations).
@@ -210,6 +216,7 @@ impl ProcessArgs {
             fit: self.fit.clone(),
             peak_smoothing: self.peak_smoothing,
             subpixel_shift: self.subpixel_shift.then_some(true),
+            weighting: self.weighting.clone(),
             motion_search: self.motion_search.clone(),
             search_range: self.search_range,
             replace: self.replace.then_some(true),

@@ -29,6 +29,7 @@ pub struct ProcessConfig {
     pub fit: Option<String>,
     pub peak_smoothing: Option<f64>,
     pub subpixel_shift: Option<bool>,
+    pub weighting: Option<String>,
     pub motion_search: Option<String>,
     pub search_range: Option<f64>,
     pub replace: Option<bool>,
@@ -120,6 +121,7 @@ impl ProcessConfig {
             fit,
             peak_smoothing,
             subpixel_shift,
+            weighting,
             motion_search,
             search_range,
             replace,
@@ -182,6 +184,8 @@ output = "flow.nc"              # .nc, .csv, .npz, .dat (Tecplot) or .vtk
 # subpixel-shift = false        # corrsum: keep event positions sub-pixel where a predictor
 #                               # shifts/deforms the windows (lower random error, ~2x the
 #                               # time of those passes)
+# weighting = "binary"          # corrsum: voxel value, binary (paper) or count (events per
+#                               # voxel; with subpixel-shift the lowest random error)
 # motion-search = "newton"      # motion: newton (default, ~4 evaluations per window) or grid
 #                               # (the paper's coarse grid + 5x5 refinement)
 # search-range = 4.0            # motion: half-width of the velocity search, px/ms
@@ -227,7 +231,6 @@ min_peak_ratio = 0.0            # flag correlation peaks below this first/second
 # Expert settings of the estimators (the top-level keys above take precedence):
 # [corrsum]
 # kernel = "auto"               # auto, fft or direct
-# weighting = "binary"          # binary occupancy per voxel (paper) or count
 # min_events = 10
 # [motion]
 # objective = "variance"

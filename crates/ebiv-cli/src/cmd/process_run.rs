@@ -3,7 +3,7 @@
 
 use super::process_config::ProcessConfig;
 use crate::progress::count_bar;
-use ebiv::estimate::corrsum::{CorrSumParams, SumOfCorrelation};
+use ebiv::estimate::corrsum::{CorrSumParams, SumOfCorrelation, Weighting};
 use ebiv::estimate::motion::{ContrastMaximization, MotionParams, SearchMethod};
 use ebiv::estimate::peak::SubPixelFit;
 use ebiv::estimate::Estimator;
@@ -173,6 +173,18 @@ impl Settings {
         }
         if let Some(on) = c.subpixel_shift {
             corrsum.subpixel_shift = on;
+        }
+        if let Some(weighting) = c.weighting.as_deref() {
+            corrsum.weighting = match weighting {
+                "binary" => Weighting::Binary,
+                "count" => Weighting::Count,
+                other => {
+                    return Err(Error::parameter(
+                        "weighting",
+                        format!("`{other}` is not binary or count"),
+                    ))
+                }
+            };
         }
         if c.search_range.is_some() {
             motion.search_range = c.search_range;
