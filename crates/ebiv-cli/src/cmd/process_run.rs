@@ -12,7 +12,8 @@ use ebiv::filter::Roi;
 use ebiv::grid::{GridSpec, Mask};
 use ebiv::io::ReadOptions;
 use ebiv::process::{
-    process_recording, scan_extent, FieldDone, ProcessParams, RunSummary, TimeSteps,
+    first_event_time, process_recording, scan_extent, FieldDone, ProcessParams, RunSummary,
+    TimeSteps,
 };
 use ebiv::render::{
     save_png, time_coded_image, valid_components, vector_map, velocity_histograms, write_gif,
@@ -299,17 +300,24 @@ pub fn plan_fields(
 ) -> Result<Planned, Error> {
     let reader = ebiv::io::open(&s.input, options)?;
     let mut geometry = reader.metadata().geometry;
-    let needs_scan =
-        geometry.is_none() || !s.absolute_time || s.time.0.is_none() || s.time.1.is_none();
-    let extent = if needs_scan {
+    let no_events = || Error::parameter("input", format!("{} holds no events", s.input.display()));
+    let both_times = s.time.0.is_some() && s.time.1.is_some();
+    // The whole recording is read only for what its header does not say: the sensor size or
+    // where the fields that fit begin and end. Given `--time START:END`, relative times
+    // need only the first event.
+    let extent = if geometry.is_none() || !both_times {
         let mut scan = ebiv::io::open(&s.input, options)?;
-        scan_extent(&mut scan)?.ok_or_else(|| {
-            Error::parameter("input", format!("{} holds no events", s.input.display()))
-        })?
+        scan_extent(&mut scan)?.ok_or_else(no_events)?
     } else {
+        let first_us = if s.absolute_time {
+            0
+        } else {
+            let mut scan = ebiv::io::open(&s.input, options)?;
+            first_event_time(&mut scan)?.ok_or_else(no_events)?
+        };
         ebiv::process::RecordingExtent {
-            first_us: 0,
-            last_us: 0,
+            first_us,
+            last_us: first_us,
             max_x: 0,
             max_y: 0,
             events: 0,

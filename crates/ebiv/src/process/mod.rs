@@ -14,8 +14,8 @@ mod stream;
 mod times;
 
 pub use stream::{
-    process_recording, scan_extent, BatchSource, FieldDone, MemorySource, RecordingExtent,
-    RunSummary, SlidingEvents,
+    first_event_time, process_recording, scan_extent, BatchSource, FieldDone, MemorySource,
+    RecordingExtent, RunSummary, SlidingEvents,
 };
 pub use times::TimeSteps;
 

@@ -95,6 +95,18 @@ pub fn scan_extent(source: &mut impl BatchSource) -> Result<Option<RecordingExte
     Ok(extent)
 }
 
+/// Time of the first event `source` yields, in file order (the earliest unless the file's
+/// time stamps run backwards), reading only up to it; `None` if it holds no events.
+pub fn first_event_time(source: &mut impl BatchSource) -> Result<Option<i64>> {
+    let mut batch = EventBuffer::new();
+    while source.next_batch(&mut batch)? {
+        if let Some(&t) = batch.t.first() {
+            return Ok(Some(t));
+        }
+    }
+    Ok(None)
+}
+
 /// What a run did, for the final summary line.
 #[derive(Debug, Clone, Default, PartialEq)]
 pub struct RunSummary {
@@ -326,4 +338,34 @@ fn run_attributes<E: Estimator>(estimator: &E, params: &ProcessParams) -> Vec<(S
     ];
     a.extend(estimator.parameters());
     a
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Batches of event times handed out in order, some of them empty (as a reader may
+    /// return between packets).
+    struct Batches(Vec<Vec<i64>>);
+
+    impl BatchSource for Batches {
+        fn next_batch(&mut self, out: &mut EventBuffer) -> Result<bool> {
+            out.clear();
+            if self.0.is_empty() {
+                return Ok(false);
+            }
+            for t in self.0.remove(0) {
+                out.push(t, 0, 0, 1);
+            }
+            Ok(true)
+        }
+    }
+
+    #[test]
+    fn the_first_event_time_is_read_without_reading_the_rest() {
+        let mut source = Batches(vec![vec![], vec![7, 3], vec![1]]);
+        assert_eq!(first_event_time(&mut source).unwrap(), Some(7));
+        assert_eq!(source.0, vec![vec![1]], "read past the first event");
+        assert_eq!(first_event_time(&mut Batches(vec![vec![]])).unwrap(), None);
+    }
 }
