@@ -249,15 +249,18 @@ impl StepContext<'_> {
     }
 
     /// The common case of [`StepContext::step`] with a new sample, done without a call: a
-    /// pixel with the low-pass on, up to date at `ta`, not blind, whose `L` neither reaches a
-    /// level during the ramp over `[ta, tb]` nor can (input and output inside both levels,
-    /// or no extremum inside the step). Same arithmetic as `segment` (the exact low-pass
-    /// solution of [`Curve::low_pass`]), so the same result bit for bit. `ramp` is
-    /// [`StepContext::prepare`] of the new sample for this pixel and step.
+    /// pixel with the low-pass on, not blind, whose `L` neither reaches a level during the
+    /// ramp over `[ta, tb]` nor can (input and output inside both levels, or no extremum
+    /// inside the step). A pixel frozen or asleep since before `ta` is first brought to `ta`
+    /// by [`StepContext::quiet_hold`] if that stretch reaches no level either. Same
+    /// arithmetic as `segment` (the exact low-pass solution of [`Curve::low_pass`]), so the
+    /// same result bit for bit. `ramp` is [`StepContext::prepare`] of the new sample for this
+    /// pixel and step.
     ///
-    /// Returns `None` if the pixel is not such a case (nothing changed; use `step`), else
-    /// what `step` returns. Most updates of a recording are of this kind: the pixels a
-    /// particle image brushes without changing them by a threshold.
+    /// Returns `None` if the pixel is not such a case (use `step`; the pixel is unchanged or,
+    /// with the same result for `step`, brought to `ta`), else what `step` returns. Most
+    /// updates of a recording are of this kind: the pixels a particle image brushes without
+    /// changing them by a threshold.
     #[inline(always)]
     pub(super) fn quiet_ramp(
         r: &Response,
@@ -267,7 +270,10 @@ impl StepContext<'_> {
         ramp: &Ramp,
     ) -> Option<Option<f64>> {
         let omega = ramp.omega;
-        if px.t != ta || px.blind() || !r.low_pass() || !(omega > 0.0 && tb - ta > 1e-9) {
+        if px.blind() || !r.low_pass() || !(omega > 0.0 && tb - ta > 1e-9) {
+            return None;
+        }
+        if px.t != ta && !Self::quiet_hold(r, px, ta) {
             return None;
         }
         let ub = ramp.u;
@@ -291,6 +297,33 @@ impl StepContext<'_> {
         } else {
             Some(f64::NEG_INFINITY)
         })
+    }
+
+    /// The constant-input stretch `[px.t, ta]` of a pixel (not blind, low-pass on) frozen or
+    /// asleep since `px.t < ta`, as `segment` without a new sample computes it, applied if it
+    /// reaches no level (then `segment` would emit nothing: the pixel ends the same, bit for
+    /// bit). Returns whether it was applied; otherwise the pixel is unchanged.
+    ///
+    /// Pixels a particle image reaches after a quiet spell take this path instead of two
+    /// calls of `segment`: the leading edge of every image.
+    #[inline(always)]
+    fn quiet_hold(r: &Response, px: &mut Pixel, ta: f64) -> bool {
+        let before = px.t < ta;
+        if !before {
+            return false;
+        }
+        let omega = r.omega(0.5 * (px.irr as f64 + px.irr as f64));
+        let curve = Curve::low_pass(px.t, ta, px.l, px.u, px.u, omega);
+        let l = curve.end_value();
+        let hi = px.l_ref + px.theta_on - TIE;
+        let lo = px.l_ref - px.theta_off + TIE;
+        let inside = |v: f64| v < hi && v > lo;
+        if !(inside(l) && (inside(px.u) || !curve.may_turn())) {
+            return false;
+        }
+        px.l = l;
+        px.t = ta;
+        true
     }
 
     /// Advance the pixel from `px.t` to `tb`, its input constant or, with `new = (irradiance,
