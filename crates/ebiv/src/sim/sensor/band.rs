@@ -344,7 +344,7 @@ impl SensorBand {
             px.clear_changed();
             let next = match StepContext::quiet_ramp(ctx.response, px, ta, tb, ramp) {
                 Some(next) => next,
-                None => ctx.step(px, local, ta, tb, Some(ramp.sample())),
+                None => ctx.step(px, local, ta, tb, Some(ramp)),
             };
             match next {
                 Some(next) => {

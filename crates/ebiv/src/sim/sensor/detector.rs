@@ -118,7 +118,7 @@ pub(super) struct Ramp {
 }
 
 impl Ramp {
-    /// The sample as [`StepContext::step`] takes it: `(irradiance, log response)`.
+    /// The sample as `segment` takes it: `(irradiance, log response)`.
     #[inline]
     pub(super) fn sample(&self) -> (f32, f64) {
         (self.irr, self.u)
@@ -146,8 +146,7 @@ const TIE: f64 = 1e-9;
 
 impl StepContext<'_> {
     /// Advance one active pixel from its own time to `tb`; its input is constant up to `ta`
-    /// and, with `new = (irradiance, log response)` of a new sample ([`Ramp::sample`]), ramps
-    /// to it over `[ta, tb]`.
+    /// and, with `new` ([`StepContext::prepare`] of a new sample), ramps to it over `[ta, tb]`.
     ///
     /// Returns `None` when the pixel leaves the active set (it cannot fire while its input is
     /// constant), else the time before which it need not be visited again unless its input
@@ -159,18 +158,22 @@ impl StepContext<'_> {
         local: u32,
         ta: f64,
         tb: f64,
-        new: Option<(f32, f64)>,
+        new: Option<&Ramp>,
     ) -> Option<f64> {
         let r = self.response;
-        if let Some((irr, u)) = new {
+        if let Some(ramp) = new {
+            let (irr, u) = ramp.sample();
             let u = if irr != px.irr { u } else { px.u };
             if px.t < ta {
                 // A pixel frozen or asleep since `px.t`: its constant-input stretch first.
-                self.segment(px, local, ta, None);
+                self.segment(px, local, ta, None, None);
             }
-            self.segment(px, local, tb, Some((irr, u)));
+            // The ramp's `decay` is that of the segment's curve if it starts at `ta` (same
+            // corner, same length), which spares the segment an exponential.
+            let decay = (px.t == ta).then_some(ramp.decay);
+            self.segment(px, local, tb, Some((irr, u)), decay);
         } else {
-            self.segment(px, local, tb, None);
+            self.segment(px, local, tb, None, None);
         }
 
         if px.blind() {
@@ -328,9 +331,17 @@ impl StepContext<'_> {
 
     /// Advance the pixel from `px.t` to `tb`, its input constant or, with `new = (irradiance,
     /// log response)`, ramping linearly in log to the new sample; emit the events of the
-    /// stretch.
+    /// stretch. `decay`, if given, is `e^(−ω·(tb − px.t))` of this stretch's low-pass corner
+    /// ω ([`Curve::end_value_from`]).
     #[inline]
-    fn segment(&mut self, px: &mut Pixel, local: u32, tb: f64, new: Option<(f32, f64)>) {
+    fn segment(
+        &mut self,
+        px: &mut Pixel,
+        local: u32,
+        tb: f64,
+        new: Option<(f32, f64)>,
+        decay: Option<f64>,
+    ) {
         let r = self.response;
         let ta = px.t;
         let tb = tb.max(ta);
@@ -341,7 +352,10 @@ impl StepContext<'_> {
         } else {
             Curve::direct(ta, tb, px.u, ub)
         };
-        let lb = curve.end_value();
+        let lb = match decay {
+            Some(decay) => curve.end_value_from(decay),
+            None => curve.end_value(),
+        };
 
         // Fast path: not blind, `L` inside both levels at the end and, if it may have an
         // extremum (which lies on the input line), the input inside them too.
