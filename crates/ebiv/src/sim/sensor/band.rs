@@ -123,41 +123,37 @@ impl SensorBand {
         let mut bound = RowNoiseBound::new(params, &response);
         // Scenes are mostly one irradiance: reuse the last logarithm.
         let (mut last_irr, mut last_u) = (0.0, response.log(0.0));
-        // Pixel `i` is at column `x`, row `y`: counted along, not divided out per pixel.
-        let (mut x, mut y) = (0u32, rows.start);
-        for i in 0..n {
-            // Fixed-pattern draws in a fixed order, whatever the parameters (v2e: frozen
-            // N(θ, σ) thresholds clamped ≥ 0.01, log-normal noise-rate factor); the factor
-            // comes last, so switching it off leaves thresholds and hot pixels as they are.
-            let mut rng = Rng::new(seed, Stream::FixedPattern, first + i as u64);
-            let (z_on, z_off) = (rng.normal_fast(), rng.normal_fast());
-            let u_hot = rng.uniform();
-            let theta_on = (response.theta_on + response.sigma * z_on).max(MIN_THRESHOLD);
-            let theta_off = (response.theta_off + response.sigma * z_off).max(MIN_THRESHOLD);
-            let mut factor = 1.0;
-            if cov > 0.0 {
-                factor = (fastmath::exp(sigma_ln * rng.normal_fast()) * factor_norm) as f32;
-                noise_factor.push(factor);
-            }
-            if u_hot < hot_fraction {
-                hot.push(i as u32);
-            }
-            bound.add(factor as f64, theta_on, theta_off);
-            let irr = clean_irradiance(irradiance(x, y));
-            if irr != last_irr {
-                (last_irr, last_u) = (irr, response.log(irr));
-            }
-            let mut px = Pixel::new(theta_on, theta_off);
-            px.adapt(irr, last_u, t0);
-            pixels.push(px);
-            x += 1;
-            if x as usize == width {
-                row_noise_bound.push(bound.take());
-                (x, y) = (0, y + 1);
-            }
-        }
-        if width == 0 {
-            row_noise_bound.resize(rows.len(), 0.0);
+        // Row by row, each row's pixels in one `extend` of a range: its length is known, so
+        // the pixels are written without a capacity check each.
+        for (row, y) in rows.clone().enumerate() {
+            pixels.extend((0..width as u32).map(|x| {
+                let i = row * width + x as usize;
+                // Fixed-pattern draws in a fixed order, whatever the parameters (v2e: frozen
+                // N(θ, σ) thresholds clamped ≥ 0.01, log-normal noise-rate factor); the factor
+                // comes last, so switching it off leaves thresholds and hot pixels as they are.
+                let mut rng = Rng::new(seed, Stream::FixedPattern, first + i as u64);
+                let (z_on, z_off) = (rng.normal_fast(), rng.normal_fast());
+                let u_hot = rng.uniform();
+                let theta_on = (response.theta_on + response.sigma * z_on).max(MIN_THRESHOLD);
+                let theta_off = (response.theta_off + response.sigma * z_off).max(MIN_THRESHOLD);
+                let mut factor = 1.0;
+                if cov > 0.0 {
+                    factor = (fastmath::exp(sigma_ln * rng.normal_fast()) * factor_norm) as f32;
+                    noise_factor.push(factor);
+                }
+                if u_hot < hot_fraction {
+                    hot.push(i as u32);
+                }
+                bound.add(factor as f64, theta_on, theta_off);
+                let irr = clean_irradiance(irradiance(x, y));
+                if irr != last_irr {
+                    (last_irr, last_u) = (irr, response.log(irr));
+                }
+                let mut px = Pixel::new(theta_on, theta_off);
+                px.adapt(irr, last_u, t0);
+                px
+            }));
+            row_noise_bound.push(bound.take());
         }
         SensorBand {
             geometry,
@@ -348,7 +344,7 @@ impl SensorBand {
             px.clear_changed();
             let next = match StepContext::quiet_ramp(ctx.response, px, ta, tb, ramp) {
                 Some(next) => next,
-                None => ctx.step(px, local, ta, tb, Some(ramp.sample())),
+                None => ctx.step(px, local, ta, tb, Some(ramp)),
             };
             match next {
                 Some(next) => {

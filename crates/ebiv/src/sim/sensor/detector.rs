@@ -118,7 +118,7 @@ pub(super) struct Ramp {
 }
 
 impl Ramp {
-    /// The sample as [`StepContext::step`] takes it: `(irradiance, log response)`.
+    /// The sample as `segment` takes it: `(irradiance, log response)`.
     #[inline]
     pub(super) fn sample(&self) -> (f32, f64) {
         (self.irr, self.u)
@@ -146,8 +146,7 @@ const TIE: f64 = 1e-9;
 
 impl StepContext<'_> {
     /// Advance one active pixel from its own time to `tb`; its input is constant up to `ta`
-    /// and, with `new = (irradiance, log response)` of a new sample ([`Ramp::sample`]), ramps
-    /// to it over `[ta, tb]`.
+    /// and, with `new` ([`StepContext::prepare`] of a new sample), ramps to it over `[ta, tb]`.
     ///
     /// Returns `None` when the pixel leaves the active set (it cannot fire while its input is
     /// constant), else the time before which it need not be visited again unless its input
@@ -159,18 +158,22 @@ impl StepContext<'_> {
         local: u32,
         ta: f64,
         tb: f64,
-        new: Option<(f32, f64)>,
+        new: Option<&Ramp>,
     ) -> Option<f64> {
         let r = self.response;
-        if let Some((irr, u)) = new {
+        if let Some(ramp) = new {
+            let (irr, u) = ramp.sample();
             let u = if irr != px.irr { u } else { px.u };
             if px.t < ta {
                 // A pixel frozen or asleep since `px.t`: its constant-input stretch first.
-                self.segment(px, local, ta, None);
+                self.segment(px, local, ta, None, None);
             }
-            self.segment(px, local, tb, Some((irr, u)));
+            // The ramp's `decay` is that of the segment's curve if it starts at `ta` (same
+            // corner, same length), which spares the segment an exponential.
+            let decay = (px.t == ta).then_some(ramp.decay);
+            self.segment(px, local, tb, Some((irr, u)), decay);
         } else {
-            self.segment(px, local, tb, None);
+            self.segment(px, local, tb, None, None);
         }
 
         if px.blind() {
@@ -249,15 +252,18 @@ impl StepContext<'_> {
     }
 
     /// The common case of [`StepContext::step`] with a new sample, done without a call: a
-    /// pixel with the low-pass on, up to date at `ta`, not blind, whose `L` neither reaches a
-    /// level during the ramp over `[ta, tb]` nor can (input and output inside both levels,
-    /// or no extremum inside the step). Same arithmetic as `segment` (the exact low-pass
-    /// solution of [`Curve::low_pass`]), so the same result bit for bit. `ramp` is
-    /// [`StepContext::prepare`] of the new sample for this pixel and step.
+    /// pixel with the low-pass on, not blind, whose `L` neither reaches a level during the
+    /// ramp over `[ta, tb]` nor can (input and output inside both levels, or no extremum
+    /// inside the step). A pixel frozen or asleep since before `ta` is first brought to `ta`
+    /// by [`StepContext::quiet_hold`] if that stretch reaches no level either. Same
+    /// arithmetic as `segment` (the exact low-pass solution of [`Curve::low_pass`]), so the
+    /// same result bit for bit. `ramp` is [`StepContext::prepare`] of the new sample for this
+    /// pixel and step.
     ///
-    /// Returns `None` if the pixel is not such a case (nothing changed; use `step`), else
-    /// what `step` returns. Most updates of a recording are of this kind: the pixels a
-    /// particle image brushes without changing them by a threshold.
+    /// Returns `None` if the pixel is not such a case (use `step`; the pixel is unchanged or,
+    /// with the same result for `step`, brought to `ta`), else what `step` returns. Most
+    /// updates of a recording are of this kind: the pixels a particle image brushes without
+    /// changing them by a threshold.
     #[inline(always)]
     pub(super) fn quiet_ramp(
         r: &Response,
@@ -267,7 +273,10 @@ impl StepContext<'_> {
         ramp: &Ramp,
     ) -> Option<Option<f64>> {
         let omega = ramp.omega;
-        if px.t != ta || px.blind() || !r.low_pass() || !(omega > 0.0 && tb - ta > 1e-9) {
+        if px.blind() || !r.low_pass() || !(omega > 0.0 && tb - ta > 1e-9) {
+            return None;
+        }
+        if px.t != ta && !Self::quiet_hold(r, px, ta) {
             return None;
         }
         let ub = ramp.u;
@@ -293,11 +302,46 @@ impl StepContext<'_> {
         })
     }
 
+    /// The constant-input stretch `[px.t, ta]` of a pixel (not blind, low-pass on) frozen or
+    /// asleep since `px.t < ta`, as `segment` without a new sample computes it, applied if it
+    /// reaches no level (then `segment` would emit nothing: the pixel ends the same, bit for
+    /// bit). Returns whether it was applied; otherwise the pixel is unchanged.
+    ///
+    /// Pixels a particle image reaches after a quiet spell take this path instead of two
+    /// calls of `segment`: the leading edge of every image.
+    #[inline(always)]
+    fn quiet_hold(r: &Response, px: &mut Pixel, ta: f64) -> bool {
+        let before = px.t < ta;
+        if !before {
+            return false;
+        }
+        let omega = r.omega(0.5 * (px.irr as f64 + px.irr as f64));
+        let curve = Curve::low_pass(px.t, ta, px.l, px.u, px.u, omega);
+        let l = curve.end_value();
+        let hi = px.l_ref + px.theta_on - TIE;
+        let lo = px.l_ref - px.theta_off + TIE;
+        let inside = |v: f64| v < hi && v > lo;
+        if !(inside(l) && (inside(px.u) || !curve.may_turn())) {
+            return false;
+        }
+        px.l = l;
+        px.t = ta;
+        true
+    }
+
     /// Advance the pixel from `px.t` to `tb`, its input constant or, with `new = (irradiance,
     /// log response)`, ramping linearly in log to the new sample; emit the events of the
-    /// stretch.
+    /// stretch. `decay`, if given, is `e^(−ω·(tb − px.t))` of this stretch's low-pass corner
+    /// ω ([`Curve::end_value_from`]).
     #[inline]
-    fn segment(&mut self, px: &mut Pixel, local: u32, tb: f64, new: Option<(f32, f64)>) {
+    fn segment(
+        &mut self,
+        px: &mut Pixel,
+        local: u32,
+        tb: f64,
+        new: Option<(f32, f64)>,
+        decay: Option<f64>,
+    ) {
         let r = self.response;
         let ta = px.t;
         let tb = tb.max(ta);
@@ -308,7 +352,10 @@ impl StepContext<'_> {
         } else {
             Curve::direct(ta, tb, px.u, ub)
         };
-        let lb = curve.end_value();
+        let lb = match decay {
+            Some(decay) => curve.end_value_from(decay),
+            None => curve.end_value(),
+        };
 
         // Fast path: not blind, `L` inside both levels at the end and, if it may have an
         // extremum (which lies on the input line), the input inside them too.

@@ -107,8 +107,9 @@ const EVENTS_PER_BUCKET: usize = 256;
 /// same however the work is split. A bucket sort: events go to buckets of equal time span
 /// (a monotone function of time, so the buckets are in order), then each bucket is sorted
 /// on its own, in parallel — a few hundred events in cache instead of one sort of millions.
-fn sort_events(events: &mut Vec<SimEvent>) {
-    let key = |e: &SimEvent| (ordered_bits(e.t_us), e.y, e.x, e.p);
+/// What is sorted is each event packed into one integer ([`pack`]): a comparison is then
+/// two machine comparisons instead of a four-field tuple built from both events.
+fn sort_events(events: &mut [SimEvent]) {
     let n = events.len();
     let (t_min, t_max) = events
         .iter()
@@ -117,7 +118,7 @@ fn sort_events(events: &mut Vec<SimEvent>) {
         });
     let buckets = n / EVENTS_PER_BUCKET;
     if buckets < 2 || t_max <= t_min {
-        events.par_sort_unstable_by_key(key);
+        events.par_sort_unstable_by_key(pack);
         return;
     }
     let per_us = buckets as f64 / (t_max - t_min);
@@ -130,10 +131,10 @@ fn sort_events(events: &mut Vec<SimEvent>) {
         start[b + 1] += start[b];
     }
     let mut next = start.clone();
-    let mut sorted = vec![events[0]; n];
+    let mut sorted = vec![0u128; n];
     for e in events.iter() {
         let slot = &mut next[bucket_of(e)];
-        sorted[*slot] = *e;
+        sorted[*slot] = pack(e);
         *slot += 1;
     }
     // Cut the output at bucket boundaries into pieces for the threads.
@@ -147,8 +148,32 @@ fn sort_events(events: &mut Vec<SimEvent>) {
     pieces
         .into_par_iter()
         .with_min_len(64)
-        .for_each(|piece| piece.sort_unstable_by_key(key));
-    *events = sorted;
+        .for_each(|piece| piece.sort_unstable());
+    for (e, &key) in events.iter_mut().zip(&sorted) {
+        *e = unpack(key);
+    }
+}
+
+/// An event of finite time as one integer whose order is that of (time, row, column,
+/// polarity), and from which [`unpack`] gives the event back bit for bit.
+#[inline]
+fn pack(e: &SimEvent) -> u128 {
+    ((ordered_bits(e.t_us) as u128) << 64)
+        | ((e.y as u128) << 32)
+        | ((e.x as u128) << 16)
+        | e.p as u128
+}
+
+/// The event packed by [`pack`].
+#[inline]
+fn unpack(key: u128) -> SimEvent {
+    let low = key as u64;
+    SimEvent {
+        t_us: f64::from_bits(unordered_bits((key >> 64) as u64)),
+        x: (low >> 16) as u16,
+        y: (low >> 32) as u16,
+        p: low as u8,
+    }
 }
 
 /// A key whose unsigned order is the numeric order of finite `t`.
@@ -159,6 +184,16 @@ fn ordered_bits(t: f64) -> u64 {
         !bits
     } else {
         bits | (1 << 63)
+    }
+}
+
+/// The bits of `t` given [`ordered_bits`]`(t)`.
+#[inline]
+fn unordered_bits(key: u64) -> u64 {
+    if key >> 63 == 1 {
+        key & !(1 << 63)
+    } else {
+        !key
     }
 }
 
@@ -217,4 +252,38 @@ fn token_bucket(events: &mut Vec<SimEvent>, rate: f64, burst: f64) -> u64 {
         }
     });
     (before - events.len()) as u64
+}
+
+#[cfg(test)]
+mod tests {
+    use super::{pack, unpack, SimEvent};
+
+    #[test]
+    fn packed_events_come_back_bit_for_bit_and_sort_in_order() {
+        let events = [
+            (-3.5, 9, 1, 0),
+            (-0.0, 0, 0, 1),
+            (0.0, 0, 0, 0),
+            (1e-300, 65_535, 65_535, 1),
+            (2.0, 4, 7, 1),
+            (2.0, 5, 6, 0),
+            (2.0, 4, 7, 0),
+            (f64::MAX, 1, 2, 1),
+        ]
+        .map(|(t_us, x, y, p)| SimEvent { t_us, x, y, p });
+        for e in &events {
+            let back = unpack(pack(e));
+            assert_eq!(back.t_us.to_bits(), e.t_us.to_bits());
+            assert_eq!((back.x, back.y, back.p), (e.x, e.y, e.p));
+        }
+        let mut by_tuple = events.to_vec();
+        by_tuple.sort_by(|a, b| {
+            a.t_us
+                .total_cmp(&b.t_us)
+                .then((a.y, a.x, a.p).cmp(&(b.y, b.x, b.p)))
+        });
+        let mut by_key = events.to_vec();
+        by_key.sort_by_key(pack);
+        assert_eq!(by_key, by_tuple);
+    }
 }
