@@ -25,6 +25,7 @@ pub mod piv;
 pub mod process;
 pub mod render;
 pub mod sim;
+mod simd;
 pub mod stats;
 pub mod units;
 pub mod validate;

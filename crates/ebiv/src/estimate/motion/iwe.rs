@@ -11,6 +11,7 @@
 //! again, so the canvas never needs clearing and the cost is proportional to the events.
 
 use super::{Objective, Splat};
+use crate::simd::avx2_available;
 
 /// Quantisation of the sub-pixel position in the kernel table (1/256 px).
 const LEVELS: usize = 256;
@@ -456,19 +457,9 @@ pub(crate) fn derivatives(
     derivatives_portable(velocity, canvas, table, work)
 }
 
-/// True where [`derivatives_avx2`] may run (x86-64 processors with AVX2, detected at run
-/// time, so one binary serves every x86-64 machine).
-fn avx2_available() -> bool {
-    #[cfg(target_arch = "x86_64")]
-    return std::arch::is_x86_feature_detected!("avx2");
-    #[cfg(not(target_arch = "x86_64"))]
-    false
-}
-
-/// [`derivatives_portable`] compiled for AVX2: its lane loops are written as arrays of 8 (4)
-/// `f32`, which become one (half an) AVX register instead of two (one) SSE registers. The
-/// arithmetic is the same operations in the same order (no fused multiply-add), so the
-/// results are bit-identical on every processor.
+/// [`derivatives_portable`] compiled for AVX2 ([`crate::simd`]): its lane loops, arrays of
+/// 8 (4) `f32`, become one (half an) AVX register instead of two (one) SSE registers; the
+/// same operations in the same order, so the same bits on every processor.
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2")]
 fn derivatives_avx2(

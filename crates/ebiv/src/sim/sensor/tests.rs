@@ -68,3 +68,42 @@ fn quiet(mut p: SensorParams) -> SensorParams {
 fn count(events: &[SimEvent], p: u8) -> usize {
     events.iter().filter(|e| e.p == p).count()
 }
+
+/// Where the processor has AVX2, [`SensorBand::advance`] runs the AVX2 build of the pixel
+/// update ([`crate::simd`]): it must give the same events, bit for bit, as the portable build,
+/// for a noisy sensor whose pixels see many different irradiance ramps.
+#[test]
+fn the_avx2_and_portable_pixel_updates_give_the_same_events() {
+    let p = SensorParams::noisy();
+    let geometry = Geometry::new(37, 5);
+    let mut dispatched = SensorBand::new(geometry, 0..5, &p, 9);
+    dispatched.adapt(0.0, |x, y| 50.0 + (x * 7 + y * 13) as f32);
+    let mut portable = dispatched.clone();
+    let (mut a, mut b) = (Vec::new(), Vec::new());
+    let mut state = 0x2545_f491_4f6c_dd1du64;
+    for step in 1..=300 {
+        let t = step as f64 * 10.0;
+        // A deterministic pseudo-random third of the pixels changes at every step.
+        let changed: Vec<(u32, f32)> = (0..geometry.width * geometry.height)
+            .filter_map(|i| {
+                state ^= state << 13;
+                state ^= state >> 7;
+                state ^= state << 17;
+                (state % 3 == 0).then(|| (i, 5.0 + (state >> 40) as f32 / 1e4))
+            })
+            .collect();
+        dispatched.advance(t, &changed, &mut a);
+        portable.begin_step(t);
+        for &(i, irr) in &changed {
+            portable.set_input(i as usize, irr);
+        }
+        portable.advance_marked_portable(&mut b);
+    }
+    assert!(a.len() > 1000, "{} events", a.len());
+    assert_eq!(a, b);
+    println!(
+        "{} events, AVX2 used: {}",
+        a.len(),
+        crate::simd::avx2_available()
+    );
+}
