@@ -27,7 +27,7 @@ mod voxels;
 
 use serde::{Deserialize, Serialize};
 
-use super::peak::{argmax, find_peak_within, peak_at, SubPixelFit};
+use super::peak::{argmax, find_peak_within, peak_at_with_row_maxima, SubPixelFit};
 use super::{Estimator, Prediction, WindowEstimate};
 use crate::error::{Error, Result};
 use crate::field::Status;
@@ -264,7 +264,7 @@ impl SumOfCorrelation {
     /// `+s2`) and, if given, the sub-pixel shift of the events (S1 by `+a`, S2 by `−a`,
     /// [`CorrSumParams::subpixel_shift`]) into `scratch.plane`, and return the event count
     /// and the index of the plane's maximum (`None`: no value above −∞), or the window's
-    /// invalid estimate.
+    /// invalid estimate. The maxima of the plane's rows are left in `scratch.accumulators`.
     fn correlation_plane(
         &self,
         slab: &Slab,
@@ -351,6 +351,8 @@ impl SumOfCorrelation {
         let best = if use_fft {
             let fourier = scratch.fourier.get_or_insert_with(|| Fourier::new(shape));
             fourier.correlate(a, b, &scratch.stats, &scratch.overlap, &mut scratch.plane);
+            let width = shape.plane_width();
+            scratch.accumulators.find_row_maxima(&scratch.plane, width);
             argmax(&scratch.plane)
         } else {
             direct::correlate(
@@ -481,7 +483,10 @@ impl Estimator for SumOfCorrelation {
                 let [cols, rows] = search_box(radius * tau_ms, [shape.rx, shape.ry]);
                 find_peak_within(&scratch.plane, pw, ph, fit, EXCLUSION_PX, cols, rows)
             }
-            None => best.and_then(|i| peak_at(&scratch.plane, pw, ph, i, fit, EXCLUSION_PX)),
+            None => best.and_then(|i| {
+                let rows = scratch.accumulators.row_maxima();
+                peak_at_with_row_maxima(&scratch.plane, pw, ph, i, fit, EXCLUSION_PX, rows)
+            }),
         };
         let Some(peak) = peak else {
             return WindowEstimate::invalid(Status::NO_PEAK, events);
@@ -617,9 +622,15 @@ impl CorrSumScratch {
         }
         if deformation.is_none() && shift.is_none() {
             // Raw events sit on pixels inside the window, at or after `from`.
-            slab.visit(window, from, to, from, |x, y, t| {
-                voxeliser.add_pixel(x as usize, y as usize, t)
-            });
+            if voxeliser.is_narrow() {
+                slab.visit(window, from, to, from, |x, y, t| {
+                    voxeliser.add_narrow_pixel(x as usize, y as usize, t)
+                });
+            } else {
+                slab.visit(window, from, to, from, |x, y, t| {
+                    voxeliser.add_pixel(x as usize, y as usize, t)
+                });
+            }
         } else {
             self.events.clear();
             match deformation {

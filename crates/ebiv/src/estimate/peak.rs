@@ -176,17 +176,53 @@ pub fn peak_at(
         [best / width, best % width],
         fit,
         exclusion,
+        None,
+    ))
+}
+
+/// [`peak_at`] for a map whose row maxima are known as well (`row_max[r]`: the largest
+/// value of row `r` as [`argmax`] compares, −∞ if none; a NaN only costs the skip of its
+/// row), as a kernel can track them while computing the map: the search for the second peak
+/// passes over every row whose maximum is not above the second peak found so far with one
+/// comparison. The same peak as [`peak_at`]; `None` also if `row_max` is shorter than the
+/// map.
+pub fn peak_at_with_row_maxima(
+    map: &[f64],
+    width: usize,
+    height: usize,
+    best: usize,
+    fit: SubPixelFit,
+    exclusion: usize,
+    row_max: &[f64],
+) -> Option<Peak> {
+    if width == 0
+        || height == 0
+        || map.len() < width * height
+        || best >= width * height
+        || row_max.len() < height
+    {
+        return None;
+    }
+    Some(fitted_peak(
+        map,
+        [width, height],
+        [best / width, best % width],
+        fit,
+        exclusion,
+        Some(row_max),
     ))
 }
 
 /// The peak at the integer maximum `[row, col]` of the map: sub-pixel fit where it is not on
-/// the map's border, and the second peak outside `exclusion` of it.
+/// the map's border, and the second peak outside `exclusion` of it (with the row maxima,
+/// if known, as in [`peak_at_with_row_maxima`]).
 fn fitted_peak(
     map: &[f64],
     [width, height]: [usize; 2],
     [row, col]: [usize; 2],
     fit: SubPixelFit,
     exclusion: usize,
+    row_max: Option<&[f64]>,
 ) -> Peak {
     let at = |r: usize, c: usize| map[r * width + c];
     let value = at(row, col);
@@ -217,7 +253,7 @@ fn fitted_peak(
             y += three_point(at(row - 1, col), value, at(row + 1, col), fit1).unwrap_or(0.0);
         }
     }
-    let second = second_peak(map, width, height, row, col, exclusion);
+    let second = second_peak(map, [width, height], [row, col], exclusion, row_max);
     Peak {
         col,
         row,
@@ -259,34 +295,84 @@ pub fn find_peak_within(
             }
         }
     }
-    Some(fitted_peak(map, [width, height], best?, fit, exclusion))
+    Some(fitted_peak(
+        map,
+        [width, height],
+        best?,
+        fit,
+        exclusion,
+        None,
+    ))
 }
 
 /// True if `v` (the finite value at `[row, col]`) is ≥ each of its up to 8 neighbours, none
 /// of them NaN.
+#[inline(always)]
 fn is_local_max(map: &[f64], [width, height]: [usize; 2], [row, col]: [usize; 2], v: f64) -> bool {
+    if row > 0 && col > 0 && row + 1 < height && col + 1 < width {
+        // Inside the map (the usual case): the row neighbours first, as most candidates of a
+        // scan along rows that are no maximum lie on a slope along the row, then the rows
+        // above and below.
+        let around = &map[(row - 1) * width..(row + 2) * width];
+        let c = width + col;
+        let below = |k: usize| around[k] <= v;
+        return v.is_finite()
+            && below(c + 1)
+            && below(c - 1)
+            && below(c - width - 1)
+            && below(c - width)
+            && below(c - width + 1)
+            && below(c + width - 1)
+            && below(c + width)
+            && below(c + width + 1);
+    }
     v.is_finite()
         && (row.saturating_sub(1)..(row + 2).min(height))
             .all(|r| (col.saturating_sub(1)..(col + 2).min(width)).all(|c| map[r * width + c] <= v))
 }
 
+/// Index of the first value of `line` above `threshold` (NaN never is), as
+/// `line.iter().position(|&v| v > threshold)`, but testing four values at a time with one
+/// branch: most of a plane lies below the second peak found so far, so most chunks are
+/// passed over whole.
+fn first_above(line: &[f64], threshold: f64) -> Option<usize> {
+    let mut chunks = line.chunks_exact(4);
+    let mut offset = 0;
+    for chunk in &mut chunks {
+        let above = chunk.iter().fold(false, |any, &v| any | (v > threshold));
+        if above {
+            return chunk
+                .iter()
+                .position(|&v| v > threshold)
+                .map(|k| offset + k);
+        }
+        offset += 4;
+    }
+    let rest = chunks.remainder();
+    rest.iter().position(|&v| v > threshold).map(|k| offset + k)
+}
+
 /// Highest finite local maximum (≥ its 8 neighbours, none NaN) farther than `exclusion`
 /// (Chebyshev) from `(row, col)`, NaN if none. Only cells above the best found so far are
-/// tested for being local maxima, and a tight search skips to the next such cell, so the
-/// scan costs little more than one comparison per cell; equal to the plain scan of every
-/// cell ([`second_peak_reference`], tested).
+/// tested for being local maxima, and a tight search ([`first_above`]) skips to the next
+/// such cell, so the scan costs little more than one comparison per cell; equal to the plain
+/// scan of every cell ([`second_peak_reference`], tested). With the maxima of the rows
+/// (`row_max`, see [`peak_at_with_row_maxima`]) a row none of whose values exceeds the second
+/// peak so far is passed over whole.
 fn second_peak(
     map: &[f64],
-    width: usize,
-    height: usize,
-    row: usize,
-    col: usize,
+    [width, height]: [usize; 2],
+    [row, col]: [usize; 2],
     exclusion: usize,
+    row_max: Option<&[f64]>,
 ) -> f64 {
     let mut second = f64::NEG_INFINITY;
     let mut found = false;
     let (left_end, right_start) = (col.saturating_sub(exclusion), col + exclusion + 1);
     for (r, line) in map[..width * height].chunks_exact(width).enumerate() {
+        if row_max.is_some_and(|m| m[r] <= second) {
+            continue;
+        }
         let segments = if r.abs_diff(row) <= exclusion {
             [0..left_end.min(width), right_start.min(width)..width]
         } else {
@@ -295,7 +381,7 @@ fn second_peak(
         for segment in segments {
             let mut c = segment.start;
             // Only values above the current second peak (NaN fails `>`).
-            while let Some(k) = line[c..segment.end].iter().position(|&v| v > second) {
+            while let Some(k) = first_above(&line[c..segment.end], second) {
                 c += k;
                 let v = line[c];
                 if v.is_finite() && is_local_max(map, [width, height], [r, c], v) {
@@ -448,6 +534,42 @@ mod tests {
     }
 
     #[test]
+    fn first_above_equals_position() {
+        let line = [
+            0.0,
+            f64::NAN,
+            2.0,
+            -1.0,
+            3.0,
+            1.0,
+            f64::INFINITY,
+            0.5,
+            2.5,
+            -0.0,
+            1.5,
+        ];
+        let thresholds = [
+            f64::NEG_INFINITY,
+            -2.0,
+            0.0,
+            1.0,
+            2.0,
+            2.5,
+            3.0,
+            f64::INFINITY,
+        ];
+        for start in 0..line.len() {
+            for end in start..=line.len() {
+                for t in thresholds {
+                    let part = &line[start..end];
+                    let plain = part.iter().position(|&v| v > t);
+                    assert_eq!(first_above(part, t), plain, "{start}..{end} above {t}");
+                }
+            }
+        }
+    }
+
+    #[test]
     fn second_peak_equals_the_plain_scan() {
         let mut state = 7u64;
         let mut next = move || {
@@ -475,9 +597,20 @@ mod tests {
             for map in [&plane, &clean, &rounded] {
                 for (row, col) in [(0, 0), (h / 2, w / 2), (h - 1, w - 1)] {
                     for exclusion in [0, 1, 2] {
-                        let fast = second_peak(map, w, h, row, col, exclusion);
+                        let fast = second_peak(map, [w, h], [row, col], exclusion, None);
                         let slow = second_peak_reference(map, w, h, row, col, exclusion);
                         assert_eq!(format!("{fast:?}"), format!("{slow:?}"), "case {case}");
+                        // The row maxima as a kernel tracks them: only a skip.
+                        let row_max: Vec<f64> = map
+                            .chunks(w)
+                            .map(|line| {
+                                let above = |m: f64, &v: &f64| if v > m { v } else { m };
+                                line.iter().fold(f64::NEG_INFINITY, above)
+                            })
+                            .collect();
+                        let bounded =
+                            second_peak(map, [w, h], [row, col], exclusion, Some(&row_max));
+                        assert_eq!(format!("{bounded:?}"), format!("{slow:?}"), "case {case}");
                     }
                 }
             }

@@ -24,6 +24,8 @@ pub(super) struct Accumulators {
     diff: Vec<f64>,
     /// Running column sums of `diff` during the final pass, `pw`.
     column: Vec<f64>,
+    /// The maximum of every row of the last plane ([`row_maximum`]), `ph`.
+    row_max: Vec<f64>,
 }
 
 impl Accumulators {
@@ -33,7 +35,22 @@ impl Accumulators {
             pairs: vec![0.0; pw * ph],
             diff: vec![0.0; (pw + 1) * (ph + 1)],
             column: vec![0.0; pw],
+            row_max: vec![f64::NEG_INFINITY; ph],
         }
+    }
+
+    /// The maximum of every row of the last plane computed by [`correlate`] (or given to
+    /// [`Accumulators::find_row_maxima`]), as [`crate::estimate::peak::peak_at_with_row_maxima`]
+    /// takes them.
+    pub fn row_maxima(&self) -> &[f64] {
+        &self.row_max
+    }
+
+    /// Find the maximum of every row of `plane` (rows of `width` lags), for a plane computed
+    /// by another kernel.
+    pub fn find_row_maxima(&mut self, plane: &[f64], width: usize) {
+        self.row_max.clear();
+        self.row_max.extend(plane.chunks(width).map(row_maximum));
     }
 }
 
@@ -55,8 +72,13 @@ pub(super) fn correlate(
         pairs,
         diff,
         column,
+        row_max: row_maxima,
     } = acc;
-    if pairs.len() != pw * ph || diff.len() != dw * (ph + 1) || column.len() != pw {
+    if pairs.len() != pw * ph
+        || diff.len() != dw * (ph + 1)
+        || column.len() != pw
+        || row_maxima.len() != ph
+    {
         *acc = Accumulators::new(shape);
         return correlate(a, b, stats, shape, overlap, plane, acc);
     }
@@ -69,69 +91,139 @@ pub(super) fn correlate(
     };
     let (ax, ay, av) = (&a.vox.x, &a.vox.y, &a.vox.v);
     for s in stats {
-        let (bx, by, bv) = (&b.vox.x, &b.vox.y, &b.vox.v);
+        let rb = b.range(s.z);
+        let (bx, by, bv) = (&b.vox.x[rb.clone()], &b.vox.y[rb.clone()], &b.vox.v[rb]);
+        let ra = a.range(s.z);
+        let a_slice = (&ax[ra.clone()], &ay[ra.clone()], &av[ra]);
+        if b.vox.unit {
+            add_pair_products(pairs, shape, s.weight, a_slice, (bx, by), |_| 1.0);
+        } else {
+            add_pair_products(pairs, shape, s.weight, a_slice, (bx, by), |j| bv[j]);
+        }
+        // Σ_O a: voxel p counts for the lags with p + Δ inside the window.
         for i in a.range(s.z) {
             let (x, y) = (ax[i] as isize, ay[i] as isize);
-            let (xa, ya) = (x - rx, y - ry);
-            let wa = s.weight * av[i];
-            // Only the `b` rows within the search radius.
-            let near = b.rows(s.z, ya..y + ry + 1);
-            for ((&qx, &qy), &qv) in bx[near.clone()]
-                .iter()
-                .zip(&by[near.clone()])
-                .zip(&bv[near])
-            {
-                let ix = (qx as isize - xa) as usize;
-                if ix < pw {
-                    let iy = (qy as isize - ya) as usize;
-                    pairs[iy * pw + ix] += wa * qv;
-                }
-            }
-            // Σ_O a: voxel p counts for the lags with p + Δ inside the window.
             let c = -s.weight * s.mean_b * av[i];
             add_rect(rx - x, rx + w - 1 - x, ry - y, ry + h - 1 - y, c);
         }
         // Σ_O b(·+Δ): voxel q counts for the lags with q − Δ inside the window.
-        let rb = b.range(s.z);
-        for ((&qx, &qy), &qv) in bx[rb.clone()].iter().zip(&by[rb.clone()]).zip(&bv[rb]) {
+        for ((&qx, &qy), &qv) in bx.iter().zip(by).zip(bv) {
             let (x, y) = (qx as isize, qy as isize);
             let c = -s.weight * s.mean_a * qv;
             add_rect(rx + x - w + 1, rx + x, ry + y - h + 1, ry + y, c);
         }
         constant += s.weight * s.mean_a * s.mean_b;
     }
-    // One pass: prefix sums turn the difference array into the per-lag values (row prefix
-    // `run`, accumulated down the columns in `column`), the analytic term `n(Δ) ā b̄` is added,
-    // the lag is normalised as by [`Overlap::normalise`] and the maximum is tracked. The
-    // accumulators are cleared as they are read.
+    // Per row of lags: prefix sums turn the difference array into the corrections (row
+    // prefix `run`, accumulated down the columns in `column`); then, independently per lag
+    // (the compiler can vectorise it), the analytic term `n(Δ) ā b̄` is added and the lag is
+    // normalised as by [`Overlap::normalise`]. The accumulators are cleared as they are read.
+    // The maximum is kept per row (`row_maximum`), the row holding the first maximum by a
+    // comparison per row, and the lag found in that row.
     let per_slice = 1.0 / stats.len().max(1) as f64;
     column.fill(0.0);
-    let (mut best, mut best_value) = (None, f64::NEG_INFINITY);
+    let (mut best_row, mut best_value) = (None, f64::NEG_INFINITY);
     for iy in 0..ph {
         let mut run = 0.0;
+        for (d, col) in diff[iy * dw..iy * dw + pw]
+            .iter_mut()
+            .zip(column.iter_mut())
+        {
+            run += std::mem::take(d);
+            *col += run;
+        }
+        // The corrections' closing column lies outside the plane.
+        diff[iy * dw + pw] = 0.0;
         let lags = iy * pw..(iy + 1) * pw;
         let cells = plane[lags.clone()]
             .iter_mut()
             .zip(&mut pairs[lags.clone()])
-            .zip(&mut diff[iy * dw..iy * dw + pw])
-            .zip(column.iter_mut())
+            .zip(column.iter())
             .zip(&overlap.area[lags.clone()])
-            .zip(&overlap.inverse[lags]);
-        for (ix, (((((cell, pair), d), col), &area), &inverse)) in cells.enumerate() {
-            run += std::mem::take(d);
-            *col += run;
-            let value = (std::mem::take(pair) + (*col + area * constant)) * (inverse * per_slice);
-            *cell = value;
-            if value > best_value {
-                best_value = value;
-                best = Some(iy * pw + ix);
-            }
+            .zip(&overlap.inverse[lags.clone()]);
+        for ((((cell, pair), &col), &area), &inverse) in cells {
+            *cell = (std::mem::take(pair) + (col + area * constant)) * (inverse * per_slice);
         }
-        // The corrections' closing column lies outside the plane.
-        diff[iy * dw + pw] = 0.0;
+        let row_max = row_maximum(&plane[lags]);
+        row_maxima[iy] = row_max;
+        if row_max > best_value {
+            best_value = row_max;
+            best_row = Some(iy);
+        }
     }
     diff[ph * dw..].fill(0.0);
-    best
+    let row = best_row?;
+    let first = plane[row * pw..(row + 1) * pw]
+        .iter()
+        .position(|&v| v == best_value)?;
+    Some(row * pw + first)
+}
+
+/// Add `weight · a · b` of every voxel pair of one slice with a lag in the plane to the lag's
+/// cell of `pairs`; `b_value(j)` is the value of `b`'s voxel `j`. Binary voxels pass `|_| 1`,
+/// and the compiler drops the loads and products (`x · 1 = x` exactly).
+#[inline(always)]
+fn add_pair_products(
+    pairs: &mut [f64],
+    shape: PlaneShape,
+    weight: f64,
+    (ax, ay, av): (&[u16], &[u16], &[f64]),
+    (bx, by): (&[u16], &[u16]),
+    b_value: impl Fn(usize) -> f64,
+) {
+    let pw = shape.plane_width();
+    let (rx, ry) = (shape.rx as isize, shape.ry as isize);
+    // The voxels of a slice are sorted by row, so the `b` voxels within the search radius of
+    // an `a` voxel's row, `lo..hi`, slide down `b`'s list as `a`'s rows grow.
+    let (mut lo, mut hi) = (0, 0);
+    for ((&x, &y), &v) in ax.iter().zip(ay).zip(av) {
+        let (x, y) = (x as isize, y as isize);
+        let (xa, ya) = (x - rx, y - ry);
+        let wa = weight * v;
+        while lo < by.len() && (by[lo] as isize) < ya {
+            lo += 1;
+        }
+        hi = hi.max(lo);
+        while hi < by.len() && (by[hi] as isize) <= y + ry {
+            hi += 1;
+        }
+        for (k, (&qx, &qy)) in bx[lo..hi].iter().zip(&by[lo..hi]).enumerate() {
+            let ix = (qx as isize - xa) as usize;
+            if ix < pw {
+                let iy = (qy as isize - ya) as usize;
+                pairs[iy * pw + ix] += wa * b_value(lo + k);
+            }
+        }
+    }
+}
+
+/// The largest value of `values` that exceeds −∞ and all values before it, as
+/// [`crate::estimate::peak::argmax`] keeps it (NaN never exceeds; −∞ if no value does), in
+/// two independent lanes (`maxsd`/`maxpd`, no branch per value). Of values equal to the
+/// maximum the scan's choice is the first, which the caller finds by comparing; the lanes
+/// may return another of them (such as −0 for +0), equal all the same.
+fn row_maximum(values: &[f64]) -> f64 {
+    let mut lanes = [f64::NEG_INFINITY; 2];
+    let mut pairs = values.chunks_exact(2);
+    for pair in &mut pairs {
+        lanes[0] = max_above(pair[0], lanes[0]);
+        lanes[1] = max_above(pair[1], lanes[1]);
+    }
+    let max = max_above(lanes[1], lanes[0]);
+    pairs
+        .remainder()
+        .iter()
+        .fold(max, |max, &v| max_above(v, max))
+}
+
+/// `value` if it exceeds `max`, else `max` (NaN never exceeds): one `maxsd`.
+#[inline(always)]
+fn max_above(value: f64, max: f64) -> f64 {
+    if value > max {
+        value
+    } else {
+        max
+    }
 }
 
 /// Add `c` to the lags `[x0, x1] × [y0, y1]` (clipped to `[0, limits]`) of the difference

@@ -29,11 +29,19 @@ pub(super) fn refine_tilted(
             let basis = [1.0, x, y, x * x, y * y, x * y];
             let (w, ln_v) = (v * v, v.ln());
             for i in 0..6 {
-                for j in 0..6 {
+                for j in i..6 {
                     m[i][j] += w * basis[i] * basis[j];
                 }
                 m[i][6] += w * basis[i] * ln_v;
             }
+        }
+    }
+    // The matrix is symmetric, and exactly so: the basis values are −1, 0 or 1, so
+    // `w·bᵢ·bⱼ` is the same number in either order and the lower triangle repeats the sums.
+    let upper = m;
+    for (i, row) in m.iter_mut().enumerate() {
+        for (j, cell) in row.iter_mut().enumerate().take(i) {
+            *cell = upper[j][i];
         }
     }
     let solved = (points >= 6).then(|| solve6(m)).flatten();
@@ -127,7 +135,16 @@ pub(super) fn refine_with_kernel(
             }
         }
     }
-    let (r0, c0, value) = best;
+    let (r1, c1, value) = best;
+    // Usually the plane's maximum stays the smoothed one and its block is the fit's
+    // neighbourhood; otherwise the block around the new maximum (every smoothed value
+    // depends only on the plane, not on the block it is computed in).
+    let smoothed = if (r1, c1) == (r0, c0) {
+        smoothed
+    } else {
+        Smoothed::around(plane, [w, h], [r1, c1], kernel)
+    };
+    let (r0, c0) = (r1, c1);
     let mut local = [0.0; 9];
     for (k, v) in local.iter_mut().enumerate() {
         *v = smoothed.at(r0 + k as isize / 3 - 1, c0 + k as isize % 3 - 1);
@@ -146,9 +163,13 @@ pub(super) fn refine_with_kernel(
     [c0 as f64 - 1.0 + x, r0 as f64 - 1.0 + y]
 }
 
-/// Half-width of the smoothed block around the plane's maximum: candidates at ±1 and their
+/// How far from the plane's maximum smoothed values are used: candidates at ±1 and their
 /// 3 × 3 neighbourhoods.
 const BLOCK: isize = 2;
+/// Half-width of a block of smoothed values ([`Smoothed`]): 3 × 3.
+const HALF: isize = 1;
+/// Cells per side of a block.
+const SIDE: usize = 2 * HALF as usize + 1;
 /// Widest kernel half-width, taps (σ ≤ 5 px).
 const MAX_REACH: usize = 10;
 /// Smaller σ smooths nothing measurable (and `2σ²` could underflow).
@@ -181,12 +202,12 @@ impl SmoothingKernel {
     }
 }
 
-/// The plane smoothed by a truncated Gaussian (±2σ) on the 5 × 5 block around a point,
+/// The plane smoothed by a truncated Gaussian (±2σ) on the 3 × 3 block around a point,
 /// renormalised where the kernel leaves the plane or meets non-finite values: a separable
 /// pass along rows, then along columns, carrying values and weights.
 struct Smoothed {
     origin: [isize; 2],
-    values: [[f64; 5]; 5],
+    values: [[f64; SIDE]; SIDE],
 }
 
 impl Smoothed {
@@ -200,34 +221,36 @@ impl Smoothed {
         let taps = &kernel.taps[..2 * reach + 1];
         let reach = reach as isize;
         // Row pass: for each row of the block's reach, Σ t v and Σ t at the block's columns.
-        let rows = (2 * (BLOCK + reach) + 1) as usize;
-        let mut across = [[(0.0, 0.0); 5]; 2 * (BLOCK as usize + MAX_REACH) + 1];
+        let rows = (2 * (HALF + reach) + 1) as usize;
+        let mut across = [[(0.0, 0.0); SIDE]; 2 * (HALF as usize + MAX_REACH) + 1];
         // Inside the plane and all finite (the usual case): the same sums without tests.
-        let (top, left) = (r0 - BLOCK - reach, c0 - BLOCK - reach);
+        let (top, left) = (r0 - HALF - reach, c0 - HALF - reach);
         let inside = top >= 0 && left >= 0 && top + rows as isize <= h && left + rows as isize <= w;
         let region = |k: usize| {
             let start = ((top + k as isize) * w + left) as usize;
             &plane[start..start + rows]
         };
         if inside && (0..rows).all(|k| region(k).iter().all(|v| v.is_finite())) {
+            // Every cell's weight is then the sum of all taps, added in the same order.
+            let total = taps.iter().fold(0.0, |sum, t| sum + t);
             for (k, line) in across.iter_mut().take(rows).enumerate() {
                 let source = region(k);
                 for (m, cell) in line.iter_mut().enumerate() {
                     for (v, t) in source[m..].iter().zip(taps) {
                         cell.0 += t * v;
-                        cell.1 += t;
                     }
+                    cell.1 = total;
                 }
             }
             return Smoothed::columns(&across, taps, [r0, c0]);
         }
         for (k, line) in across.iter_mut().take(rows).enumerate() {
-            let r = r0 - BLOCK - reach + k as isize;
+            let r = r0 - HALF - reach + k as isize;
             if r < 0 || r >= h {
                 continue;
             }
             for (m, cell) in line.iter_mut().enumerate() {
-                let c = c0 - BLOCK + m as isize;
+                let c = c0 - HALF + m as isize;
                 for (j, t) in (-reach..=reach).zip(taps) {
                     let cc = c + j;
                     if cc < 0 || cc >= w {
@@ -245,8 +268,8 @@ impl Smoothed {
     }
 
     /// Column pass over the row sums `across` (value, weight) of the block's columns.
-    fn columns(across: &[[(f64, f64); 5]], taps: &[f64], [r0, c0]: [isize; 2]) -> Self {
-        let mut values = [[f64::NAN; 5]; 5];
+    fn columns(across: &[[(f64, f64); SIDE]], taps: &[f64], [r0, c0]: [isize; 2]) -> Self {
+        let mut values = [[f64::NAN; SIDE]; SIDE];
         for (n, row) in values.iter_mut().enumerate() {
             for (m, out) in row.iter_mut().enumerate() {
                 let (mut sum, mut weight) = (0.0, 0.0);
@@ -259,7 +282,7 @@ impl Smoothed {
             }
         }
         Smoothed {
-            origin: [r0 - BLOCK, c0 - BLOCK],
+            origin: [r0 - HALF, c0 - HALF],
             values,
         }
     }

@@ -102,8 +102,7 @@ impl Fourier {
             v: vec![1.0; shape.w * shape.h],
             start: vec![0, shape.w * shape.h],
             slice_events: vec![0],
-            h: shape.h,
-            row_start: Vec::new(),
+            unit: true,
         };
         let mut spectrum = std::mem::take(&mut fourier.window_spectrum);
         fourier.forward(window.all(), 0, 0.0, &mut spectrum);

@@ -39,10 +39,9 @@ pub(super) struct Voxels {
     pub start: Vec<usize>,
     /// Events binned into each slice.
     pub slice_events: Vec<usize>,
-    /// Window height in rows.
-    pub h: usize,
-    /// First voxel of every row: slice `z`, row `r` starts at `row_start[z (h + 1) + r]`.
-    pub row_start: Vec<u32>,
+    /// Every value is 1 (binary occupancy), so that products with values and sums of values
+    /// can be left out or counted, exactly.
+    pub unit: bool,
 }
 
 impl Voxels {
@@ -89,16 +88,6 @@ impl SubVolume<'_> {
 
     pub fn len(&self, z: usize) -> usize {
         self.range(z).len()
-    }
-
-    /// Indices of the voxels of slice `z` in rows `rows` (clipped to the window).
-    #[inline]
-    pub fn rows(&self, z: usize, rows: std::ops::Range<isize>) -> std::ops::Range<usize> {
-        let h = self.vox.h;
-        let base = (self.first + z) * (h + 1);
-        let clip = |r: isize| r.clamp(0, h as isize) as usize;
-        let starts = &self.vox.row_start;
-        starts[base + clip(rows.start)] as usize..starts[base + clip(rows.end)] as usize
     }
 
     /// Events that went into the voxels of this sub-volume.
@@ -303,6 +292,31 @@ impl Voxeliser {
         }
     }
 
+    /// True if rows and row masks are a single word each (window of at most 64 × 64 px),
+    /// where [`Voxeliser::add_narrow_pixel`] may be used.
+    pub fn is_narrow(&self) -> bool {
+        self.words == 1 && self.row_words == 1
+    }
+
+    /// [`Voxeliser::add_pixel`] for a narrow window ([`Voxeliser::is_narrow`]): the bitmap
+    /// row and the row mask are single words, found without the word arithmetic.
+    #[inline(always)]
+    pub fn add_narrow_pixel(&mut self, col: usize, row: usize, time: i64) {
+        debug_assert!(self.is_narrow());
+        if col >= self.w || row >= self.h || !(0..self.slab_us).contains(&time) {
+            return;
+        }
+        let z = self.slice_of(time);
+        self.slice_events[z] += 1;
+        // `col < w ≤ 64` and `row < h ≤ 64`.
+        self.rows[z] |= 1u64 << row;
+        self.bits[z * self.h + row] |= 1u64 << col;
+        if self.count {
+            let c = &mut self.counts[(z * self.h + row) * self.w + col];
+            *c = c.saturating_add(1);
+        }
+    }
+
     /// The slice of `time` µs (in `[0, T)`): `⌊t·N/T⌋`.
     #[inline(always)]
     fn slice_of(&self, time: i64) -> usize {
@@ -365,55 +379,93 @@ impl Voxeliser {
     }
 
     /// Read the occupancy bitmaps (and counts or, `splatted`, weights) into `out`, clearing
-    /// them.
+    /// them: first the positions, then the values.
     fn read_back(&mut self, out: &mut Voxels, splatted: bool) {
-        let (w, h, words) = (self.w, self.h, self.words);
-        let total: usize = self.slice_events.iter().sum();
-        out.x.clear();
-        out.y.clear();
+        self.read_positions(out, splatted);
         out.v.clear();
-        out.x.reserve(total);
-        out.y.reserve(total);
-        out.v.reserve(total);
+        out.unit = !splatted && !self.count;
+        if splatted {
+            self.read_values(out, |v, at| std::mem::take(&mut v.weights[at]));
+        } else if self.count {
+            self.read_values(out, |v, at| f64::from(std::mem::take(&mut v.counts[at])));
+        } else {
+            // Binary occupancy: every voxel is 1.
+            out.v.resize(out.x.len(), 1.0);
+        }
+    }
+
+    /// Read the occupancy bitmaps into the positions and slice starts of `out`, clearing
+    /// them. Positions are written by index into buffers long enough for every event to
+    /// have a voxel of its own (up to 9 pixels per event `splatted`), then cut to length:
+    /// no capacity check and length update per voxel, as pushes would cost.
+    fn read_positions(&mut self, out: &mut Voxels, splatted: bool) {
+        let (h, words, row_words) = (self.h, self.words, self.row_words);
+        let events: usize = self.slice_events.iter().sum();
+        let bound = if splatted { 9 * events } else { events };
+        grow(&mut out.x, bound);
+        grow(&mut out.y, bound);
         out.start.clear();
         out.start.push(0);
         out.slice_events.clone_from(&self.slice_events);
-        out.h = h;
-        // Every entry is written below: no clearing.
-        out.row_start.resize(self.slices * (h + 1), 0);
+        let (xs, ys) = (&mut out.x[..], &mut out.y[..]);
+        let mut n = 0;
+        if self.is_narrow() {
+            // One word per bitmap row and per row mask: no loops over words.
+            for (z, mask) in self.rows[..self.slices].iter_mut().enumerate() {
+                let mut mask = std::mem::take(mask);
+                while mask != 0 {
+                    let row = mask.trailing_zeros() as usize;
+                    mask &= mask - 1;
+                    let mut word = std::mem::take(&mut self.bits[z * h + row]);
+                    while word != 0 {
+                        xs[n] = word.trailing_zeros() as u16;
+                        ys[n] = row as u16;
+                        word &= word - 1;
+                        n += 1;
+                    }
+                }
+                out.start.push(n);
+            }
+            out.x.truncate(n);
+            out.y.truncate(n);
+            return;
+        }
         for z in 0..self.slices {
-            let starts = &mut out.row_start[z * (h + 1)..(z + 1) * (h + 1)];
-            let mut filled = 0;
-            for rw in 0..self.row_words {
-                let mut mask = std::mem::take(&mut self.rows[z * self.row_words + rw]);
+            for rw in 0..row_words {
+                let mut mask = std::mem::take(&mut self.rows[z * row_words + rw]);
                 while mask != 0 {
                     let row = rw * 64 + mask.trailing_zeros() as usize;
                     mask &= mask - 1;
-                    starts[filled..=row].fill(out.v.len() as u32);
-                    filled = row + 1;
                     let line = (z * h + row) * words;
-                    for k in 0..words {
-                        let mut word = std::mem::take(&mut self.bits[line + k]);
+                    for (k, word) in self.bits[line..line + words].iter_mut().enumerate() {
+                        let mut word = std::mem::take(word);
                         while word != 0 {
                             let col = k * 64 + word.trailing_zeros() as usize;
                             word &= word - 1;
-                            out.x.push(col as u16);
-                            out.y.push(row as u16);
-                            let at = (z * h + row) * w + col;
-                            let value = if splatted {
-                                std::mem::take(&mut self.weights[at])
-                            } else if self.count {
-                                f64::from(std::mem::take(&mut self.counts[at]))
-                            } else {
-                                1.0
-                            };
-                            out.v.push(value);
+                            xs[n] = col as u16;
+                            ys[n] = row as u16;
+                            n += 1;
                         }
                     }
                 }
             }
-            starts[filled..].fill(out.v.len() as u32);
-            out.start.push(out.v.len());
+            out.start.push(n);
+        }
+        out.x.truncate(n);
+        out.y.truncate(n);
+    }
+
+    /// Append to `out.v` the value of every voxel of `out` (as read by
+    /// [`Voxeliser::read_positions`]), taken by `take` from the voxeliser's buffers at the
+    /// voxel's index `[slice][row][column]`.
+    fn read_values(&mut self, out: &mut Voxels, mut take: impl FnMut(&mut Self, usize) -> f64) {
+        let (w, h) = (self.w, self.h);
+        for z in 0..self.slices {
+            let range = out.start[z]..out.start[z + 1];
+            let positions = out.x[range.clone()].iter().zip(&out.y[range]);
+            out.v.extend(
+                positions.map(|(&x, &y)| take(self, (z * h + usize::from(y)) * w + usize::from(x))),
+            );
         }
     }
 
@@ -481,9 +533,15 @@ pub(super) fn slice_statistics(
     out.clear();
     let pixels = (shape.w * shape.h) as f64;
     let moments = |v: SubVolume<'_>, z: usize| {
-        let (s, s2) = v.vox.v[v.range(z)]
-            .iter()
-            .fold((0.0, 0.0), |(s, s2), &x| (s + x, s2 + x * x));
+        let (s, s2) = if v.vox.unit {
+            // Sums of ones: the count, exactly.
+            let n = v.len(z) as f64;
+            (n, n)
+        } else {
+            v.vox.v[v.range(z)]
+                .iter()
+                .fold((0.0, 0.0), |(s, s2), &x| (s + x, s2 + x * x))
+        };
         let mean = s / pixels;
         (mean, s2 / pixels - mean * mean)
     };
