@@ -323,6 +323,10 @@ fn wall_flow_with_subpixel_shift() {
     println!("subpixel shift and count weighting: {flagged_counted} flagged, median |Δv| {with_counts:.4}");
     assert!(flagged <= flagged_default, "{flagged} vs {flagged_default}");
     assert!(with <= without, "{with} vs {without}");
+    let changed = counted
+        .iter()
+        .any(|(k, a)| a.status == 0 && shifted[k].status == 0 && a.u != shifted[k].u);
+    assert!(changed, "--weighting count changed no vector");
     assert!(flagged_counted <= flagged_default, "{flagged_counted}");
     assert!(with_counts <= without, "{with_counts} vs {without}");
     let same = counted.iter().all(|(k, a)| {

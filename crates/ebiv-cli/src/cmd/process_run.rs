@@ -12,8 +12,7 @@ use ebiv::filter::Roi;
 use ebiv::grid::{GridSpec, Mask};
 use ebiv::io::ReadOptions;
 use ebiv::process::{
-    first_event_time, process_recording, scan_extent, FieldDone, ProcessParams, RunSummary,
-    TimeSteps,
+    process_recording, scan_extent, FieldDone, ProcessParams, RunSummary, TimeSteps,
 };
 use ebiv::render::{
     save_png, time_coded_image, valid_components, vector_map, velocity_histograms, write_gif,
@@ -304,7 +303,8 @@ pub fn plan_fields(
     let both_times = s.time.0.is_some() && s.time.1.is_some();
     // The whole recording is read only for what its header does not say: the sensor size or
     // where the fields that fit begin and end. Given `--time START:END`, relative times
-    // need only the first event.
+    // need only the first event (in file order, the origin of every command's relative
+    // times).
     let extent = if geometry.is_none() || !both_times {
         let mut scan = ebiv::io::open(&s.input, options)?;
         scan_extent(&mut scan)?.ok_or_else(no_events)?
@@ -312,10 +312,10 @@ pub fn plan_fields(
         let first_us = if s.absolute_time {
             0
         } else {
-            let mut scan = ebiv::io::open(&s.input, options)?;
-            first_event_time(&mut scan)?.ok_or_else(no_events)?
+            super::first_event_time(&s.input, options)?.ok_or_else(no_events)?
         };
         ebiv::process::RecordingExtent {
+            first_in_file_us: first_us,
             first_us,
             last_us: first_us,
             max_x: 0,
@@ -327,7 +327,11 @@ pub fn plan_fields(
         extent.max_x as u32 + 1,
         extent.max_y as u32 + 1,
     ));
-    let origin = if s.absolute_time { 0 } else { extent.first_us };
+    let origin = if s.absolute_time {
+        0
+    } else {
+        extent.first_in_file_us
+    };
     let step = s.time.2.unwrap_or(default_step);
     let fitting = TimeSteps::fitting(extent.first_us, extent.last_us, before, after, step);
     let start = s.time.0.map(|t| origin + t);

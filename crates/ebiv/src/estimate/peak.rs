@@ -167,17 +167,7 @@ pub fn peak_at(
     fit: SubPixelFit,
     exclusion: usize,
 ) -> Option<Peak> {
-    if width == 0 || height == 0 || map.len() < width * height || best >= width * height {
-        return None;
-    }
-    Some(fitted_peak(
-        map,
-        [width, height],
-        [best / width, best % width],
-        fit,
-        exclusion,
-        None,
-    ))
+    checked_peak(map, [width, height], best, fit, exclusion, None)
 }
 
 /// [`peak_at`] for a map whose row maxima are known as well (`row_max[r]`: the largest
@@ -195,21 +185,33 @@ pub fn peak_at_with_row_maxima(
     exclusion: usize,
     row_max: &[f64],
 ) -> Option<Peak> {
-    if width == 0
-        || height == 0
-        || map.len() < width * height
-        || best >= width * height
-        || row_max.len() < height
-    {
+    if row_max.len() < height {
         return None;
     }
+    checked_peak(map, [width, height], best, fit, exclusion, Some(row_max))
+}
+
+/// [`fitted_peak`] at index `best`, `None` for an empty map, a map shorter than
+/// `width × height` or `best` outside it.
+fn checked_peak(
+    map: &[f64],
+    [width, height]: [usize; 2],
+    best: usize,
+    fit: SubPixelFit,
+    exclusion: usize,
+    row_max: Option<&[f64]>,
+) -> Option<Peak> {
+    if width == 0 || height == 0 || map.len() < width * height || best >= width * height {
+        return None;
+    }
+    let at = [best / width, best % width];
     Some(fitted_peak(
         map,
         [width, height],
-        [best / width, best % width],
+        at,
         fit,
         exclusion,
-        Some(row_max),
+        row_max,
     ))
 }
 

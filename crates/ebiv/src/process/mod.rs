@@ -14,8 +14,8 @@ mod stream;
 mod times;
 
 pub use stream::{
-    first_event_time, process_recording, scan_extent, BatchSource, FieldDone, MemorySource,
-    RecordingExtent, RunSummary, SlidingEvents,
+    process_recording, scan_extent, BatchSource, FieldDone, MemorySource, RecordingExtent,
+    RunSummary, SlidingEvents,
 };
 pub use times::TimeSteps;
 

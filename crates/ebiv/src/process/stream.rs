@@ -59,6 +59,9 @@ impl BatchSource for MemorySource<'_> {
 /// Time range and pixel extent of a recording, from one pass over it.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct RecordingExtent {
+    /// Time of the first event in file order, µs: the origin of times given relative to the
+    /// recording (the earliest time too, unless the file's time stamps run backwards).
+    pub first_in_file_us: i64,
     /// Earliest event time, µs.
     pub first_us: i64,
     /// Latest event time, µs.
@@ -79,6 +82,7 @@ pub fn scan_extent(source: &mut impl BatchSource) -> Result<Option<RecordingExte
         for i in 0..batch.len() {
             let (t, x, y) = (batch.t[i], batch.x[i], batch.y[i]);
             let e = extent.get_or_insert(RecordingExtent {
+                first_in_file_us: t,
                 first_us: t,
                 last_us: t,
                 max_x: x,
@@ -93,18 +97,6 @@ pub fn scan_extent(source: &mut impl BatchSource) -> Result<Option<RecordingExte
         }
     }
     Ok(extent)
-}
-
-/// Time of the first event `source` yields, in file order (the earliest unless the file's
-/// time stamps run backwards), reading only up to it; `None` if it holds no events.
-pub fn first_event_time(source: &mut impl BatchSource) -> Result<Option<i64>> {
-    let mut batch = EventBuffer::new();
-    while source.next_batch(&mut batch)? {
-        if let Some(&t) = batch.t.first() {
-            return Ok(Some(t));
-        }
-    }
-    Ok(None)
 }
 
 /// What a run did, for the final summary line.
@@ -362,10 +354,11 @@ mod tests {
     }
 
     #[test]
-    fn the_first_event_time_is_read_without_reading_the_rest() {
-        let mut source = Batches(vec![vec![], vec![7, 3], vec![1]]);
-        assert_eq!(first_event_time(&mut source).unwrap(), Some(7));
-        assert_eq!(source.0, vec![vec![1]], "read past the first event");
-        assert_eq!(first_event_time(&mut Batches(vec![vec![]])).unwrap(), None);
+    fn the_extent_keeps_the_first_time_in_file_order_and_the_range() {
+        let mut source = Batches(vec![vec![], vec![7, 3], vec![9]]);
+        let e = scan_extent(&mut source).unwrap().unwrap();
+        assert_eq!((e.first_in_file_us, e.first_us, e.last_us), (7, 3, 9));
+        assert_eq!(e.events, 3);
+        assert_eq!(scan_extent(&mut Batches(vec![vec![]])).unwrap(), None);
     }
 }

@@ -128,6 +128,12 @@ fn direct_fft_and_definition_agree_on_random_inputs() {
         let mut acc = direct::Accumulators::new(shape);
         let best = direct::correlate(a, b, &stats, shape, &overlap, &mut direct, &mut acc);
         assert_eq!(best, crate::estimate::peak::argmax(&direct));
+        // The row maxima tracked by the kernel are the plain maxima of the plane's rows.
+        let plain: Vec<f64> = direct
+            .chunks(pw)
+            .map(|row| row.iter().fold(f64::NEG_INFINITY, |m, &v| m.max(v)))
+            .collect();
+        assert_eq!(acc.row_maxima(), &plain[..], "case {case}");
         // The accumulators are left cleared: a second run gives the same plane.
         let mut again = vec![0.0; pw * ph];
         direct::correlate(a, b, &stats, shape, &overlap, &mut again, &mut acc);

@@ -460,9 +460,12 @@ pub(crate) fn derivatives(
 /// [`derivatives_portable`] compiled for AVX2 ([`crate::simd`]): its lane loops, arrays of
 /// 8 (4) `f32`, become one (half an) AVX register instead of two (one) SSE registers; the
 /// same operations in the same order, so the same bits on every processor.
+///
+/// # Safety
+/// Only where the processor has AVX2 ([`avx2_available`]).
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2")]
-fn derivatives_avx2(
+unsafe fn derivatives_avx2(
     velocity: [f64; 2],
     canvas: &Canvas,
     table: &SplatTable,

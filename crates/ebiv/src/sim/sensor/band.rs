@@ -323,9 +323,12 @@ impl SensorBand {
     /// [`SensorBand::advance_marked`] compiled for AVX2 ([`crate::simd`]): the lane-wise
     /// pixel set-up (`prepare_lanes` with its exp and ln lanes) runs four `f64` lanes per
     /// instruction instead of two; the same operations in the same order, the same events.
+    ///
+    /// # Safety
+    /// Only where the processor has AVX2 ([`crate::simd::avx2_available`]).
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx2")]
-    fn advance_marked_avx2(&mut self, out: &mut Vec<SimEvent>) {
+    unsafe fn advance_marked_avx2(&mut self, out: &mut Vec<SimEvent>) {
         self.advance_marked_portable(out)
     }
 
