@@ -174,9 +174,10 @@ unsafe fn correlate_avx2(
     correlate_portable(a, b, stats, shape, overlap, plane, acc)
 }
 
-/// [`correlate`] with accumulators of the plane's shape.
+/// [`correlate`] with accumulators of the plane's shape, in the build for every x86-64
+/// processor (or, inlined into [`correlate_avx2`], the AVX2 build).
 #[inline(always)]
-fn correlate_portable(
+pub(super) fn correlate_portable(
     a: SubVolume<'_>,
     b: SubVolume<'_>,
     stats: &[SliceStats],

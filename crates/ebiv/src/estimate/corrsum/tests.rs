@@ -90,11 +90,15 @@ fn direct_fft_and_definition_agree_on_random_inputs() {
     let mut rng = Rng(7);
     let cases = [
         (40u32, 40u32, 20usize, 20usize, 20u32, 300usize, false),
+        // The plane of the case before on a narrower window (other pair layout).
+        (30, 40, 20, 20, 20, 300, true),
         (32, 24, 16, 12, 10, 200, true),
         (17, 23, 5, 9, 7, 400, false),
         (12, 12, 11, 11, 3, 120, true),
         (40, 40, 20, 20, 20, 4000, false),
     ];
+    // Accumulators carried from case to case: rebuilt for each new shape.
+    let mut carried: Option<direct::Accumulators> = None;
     for (case, &(w, h, rx, ry, slices, n, count)) in cases.iter().enumerate() {
         let shape = PlaneShape {
             w: w as usize,
@@ -138,6 +142,19 @@ fn direct_fft_and_definition_agree_on_random_inputs() {
         let mut again = vec![0.0; pw * ph];
         direct::correlate(a, b, &stats, shape, &overlap, &mut again, &mut acc);
         assert_eq!(direct, again);
+        let carried = carried.get_or_insert_with(|| direct::Accumulators::new(shape));
+        let mut reused = vec![0.0; pw * ph];
+        direct::correlate(a, b, &stats, shape, &overlap, &mut reused, carried);
+        assert_eq!(direct, reused, "case {case}: accumulators of another shape");
+        // The build chosen at run time (AVX2 where available) and the portable one give
+        // the same bits.
+        let mut portable = vec![0.0; pw * ph];
+        let mut fresh = direct::Accumulators::new(shape);
+        let best_portable =
+            direct::correlate_portable(a, b, &stats, shape, &overlap, &mut portable, &mut fresh);
+        assert_eq!(best_portable, best, "case {case}");
+        let bits = |plane: &[f64]| plane.iter().map(|v| v.to_bits()).collect::<Vec<_>>();
+        assert_eq!(bits(&direct), bits(&portable), "case {case}");
         let mut fft = vec![0.0; pw * ph];
         Fourier::new(shape).correlate(a, b, &stats, &overlap, &mut fft);
         let dense = dense_plane(a, b, &stats, shape);
