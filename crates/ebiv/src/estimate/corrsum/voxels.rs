@@ -402,8 +402,9 @@ impl Voxeliser {
         let (h, words, row_words) = (self.h, self.words, self.row_words);
         let events: usize = self.slice_events.iter().sum();
         let bound = if splatted { 9 * events } else { events };
-        grow(&mut out.x, bound);
-        grow(&mut out.y, bound);
+        // Room for the narrow path's second write past the last voxel.
+        grow(&mut out.x, bound + 1);
+        grow(&mut out.y, bound + 1);
         out.start.clear();
         out.start.push(0);
         out.slice_events.clone_from(&self.slice_events);
@@ -417,11 +418,19 @@ impl Voxeliser {
                     let row = mask.trailing_zeros() as usize;
                     mask &= mask - 1;
                     let mut word = std::mem::take(&mut self.bits[z * h + row]);
+                    // Two voxels per step, whether or not the row holds a second (its
+                    // column is then past the window and `n` does not count it): most rows
+                    // of a slice hold one or two, so the loop rarely turns and its exit
+                    // branch, taken after a varying number of voxels, is rarely
+                    // mispredicted.
                     while word != 0 {
+                        let rest = word & (word - 1);
                         xs[n] = word.trailing_zeros() as u16;
+                        xs[n + 1] = rest.trailing_zeros() as u16;
                         ys[n] = row as u16;
-                        word &= word - 1;
-                        n += 1;
+                        ys[n + 1] = row as u16;
+                        n += 1 + usize::from(rest != 0);
+                        word = rest & rest.wrapping_sub(1);
                     }
                 }
                 out.start.push(n);
