@@ -95,16 +95,12 @@ pub(crate) fn vote(
     if (hi - lo).is_nan() || hi - lo <= 1e-6 {
         return None;
     }
-    // The events in time order (equal times in their order in `events`), thinned evenly to
-    // at most MAX_EVENTS. A window's events are gathered tile by tile, each tile in time
-    // order: a stable sort merges these runs with few mispredicted branches, where an
-    // unstable sort, partitioning, mispredicted about every other comparison (callgrind:
-    // quicksort was 47 % of a motion field's mispredictions).
+    // The events in time order, thinned evenly to at most MAX_EVENTS.
     let total = events.t.len();
     s.order.clear();
     s.order.extend(0..total as u32);
     s.order
-        .sort_by(|&a, &b| events.t[a as usize].total_cmp(&events.t[b as usize]));
+        .sort_unstable_by(|&a, &b| events.t[a as usize].total_cmp(&events.t[b as usize]));
     let kept = total.min(MAX_EVENTS);
     for v in s.sorted.iter_mut() {
         v.clear();
