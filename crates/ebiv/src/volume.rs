@@ -329,17 +329,21 @@ impl Slab {
             counts[k + 1] += counts[k];
         }
         let total = counts[n_tiles];
+        // Every skipped event is written to the one slot past the kept ones (its bucket's
+        // fill never advances), then cut off: no branch, and no room held for them.
         let mut fill = counts.clone();
-        let all = counts[n_tiles + 1];
-        let (mut sx, mut sy, mut st) = (vec![0u16; all], vec![0u16; all], vec![0i64; all]);
+        let (mut sx, mut sy, mut st) = (
+            vec![0u16; total + 1],
+            vec![0u16; total + 1],
+            vec![0i64; total + 1],
+        );
         for (i, &k) in candidates.zip(&tiles) {
             let at = fill[k as usize];
-            fill[k as usize] += 1;
+            fill[k as usize] += usize::from(k != skipped);
             sx[at] = x[i];
             sy[at] = y[i];
             st[at] = t[i];
         }
-        // The skipped events fill the end: drop them.
         sx.truncate(total);
         sy.truncate(total);
         st.truncate(total);

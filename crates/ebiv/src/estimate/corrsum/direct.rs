@@ -186,9 +186,12 @@ pub(super) fn correlate_portable(
     plane: &mut [f64],
     acc: &mut Accumulators,
 ) -> Option<usize> {
+    debug_assert_eq!(acc.shape, shape, "accumulators of another plane shape");
     let (pw, ph) = (shape.plane_width(), shape.plane_height());
     let dw = pw + 1;
     let layout = PairLayout::of(shape);
+    // `find_row_maxima` may have left the row maxima of another plane.
+    acc.row_max.resize(ph, f64::NEG_INFINITY);
     let Accumulators {
         pairs,
         linear,
@@ -361,7 +364,7 @@ fn add_rectangle(diff: &mut [f64], [x0, x1]: [usize; 2], [y0, y1]: [usize; 2], c
 }
 
 /// The mask of the indices of `cells`, a power of two long (as [`Accumulators::new`]
-/// allocates `pairs`, longer than the cells the kernel uses). Every index the
+/// allocates `pairs`, at least as long as the cells the kernel uses). Every index the
 /// kernel computes lies within the cells used, so masking it changes no index; it shows the
 /// compiler that the index is in bounds, and the test per update is left out.
 #[inline(always)]
