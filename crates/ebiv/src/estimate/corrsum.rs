@@ -27,7 +27,7 @@ mod voxels;
 
 use serde::{Deserialize, Serialize};
 
-use super::peak::{argmax, find_peak_within, peak_at_with_row_maxima, SubPixelFit};
+use super::peak::{argmax, find_peak_within, peak_at, SubPixelFit};
 use super::{Estimator, Prediction, WindowEstimate};
 use crate::error::{Error, Result};
 use crate::field::Status;
@@ -485,7 +485,7 @@ impl Estimator for SumOfCorrelation {
             }
             None => best.and_then(|i| {
                 let rows = scratch.accumulators.row_maxima();
-                peak_at_with_row_maxima(&scratch.plane, pw, ph, i, fit, EXCLUSION_PX, rows)
+                peak_at(&scratch.plane, [pw, ph], i, fit, EXCLUSION_PX, Some(rows))
             }),
         };
         let Some(peak) = peak else {

@@ -140,7 +140,7 @@ pub fn find_peak(
         return None;
     }
     let best = argmax(&map[..width * height])?;
-    peak_at(map, width, height, best, fit, exclusion)
+    peak_at(map, [width, height], best, fit, exclusion, None)
 }
 
 /// Index of the first maximum of `map` (the first value greater than all before it), `None`
@@ -157,43 +157,13 @@ pub fn argmax(map: &[f64]) -> Option<usize> {
 }
 
 /// [`find_peak`] for a map whose maximum is already known to be at index `best` (as
-/// [`argmax`] finds it, e.g. tracked while the map was computed). `None` if `best` lies
-/// outside the map.
+/// [`argmax`] finds it, e.g. tracked while the map was computed). With the map's row maxima
+/// (`row_max[r]`: the largest value of row `r` as [`argmax`] compares, −∞ if none; a NaN
+/// only costs the skip of its row), as a kernel can track them while computing the map, the
+/// search for the second peak passes over every row whose maximum is not above the second
+/// peak found so far with one comparison; the peak is the same. `None` for an empty map, a
+/// map shorter than `width × height`, `best` outside it, or `row_max` shorter than the map.
 pub fn peak_at(
-    map: &[f64],
-    width: usize,
-    height: usize,
-    best: usize,
-    fit: SubPixelFit,
-    exclusion: usize,
-) -> Option<Peak> {
-    checked_peak(map, [width, height], best, fit, exclusion, None)
-}
-
-/// [`peak_at`] for a map whose row maxima are known as well (`row_max[r]`: the largest
-/// value of row `r` as [`argmax`] compares, −∞ if none; a NaN only costs the skip of its
-/// row), as a kernel can track them while computing the map: the search for the second peak
-/// passes over every row whose maximum is not above the second peak found so far with one
-/// comparison. The same peak as [`peak_at`]; `None` also if `row_max` is shorter than the
-/// map.
-pub fn peak_at_with_row_maxima(
-    map: &[f64],
-    width: usize,
-    height: usize,
-    best: usize,
-    fit: SubPixelFit,
-    exclusion: usize,
-    row_max: &[f64],
-) -> Option<Peak> {
-    if row_max.len() < height {
-        return None;
-    }
-    checked_peak(map, [width, height], best, fit, exclusion, Some(row_max))
-}
-
-/// [`fitted_peak`] at index `best`, `None` for an empty map, a map shorter than
-/// `width × height` or `best` outside it.
-fn checked_peak(
     map: &[f64],
     [width, height]: [usize; 2],
     best: usize,
@@ -201,7 +171,8 @@ fn checked_peak(
     exclusion: usize,
     row_max: Option<&[f64]>,
 ) -> Option<Peak> {
-    if width == 0 || height == 0 || map.len() < width * height || best >= width * height {
+    let valid_map = width > 0 && height > 0 && map.len() >= width * height;
+    if !valid_map || best >= width * height || row_max.is_some_and(|m| m.len() < height) {
         return None;
     }
     let at = [best / width, best % width];
@@ -217,7 +188,7 @@ fn checked_peak(
 
 /// The peak at the integer maximum `[row, col]` of the map: sub-pixel fit where it is not on
 /// the map's border, and the second peak outside `exclusion` of it (with the row maxima,
-/// if known, as in [`peak_at_with_row_maxima`]).
+/// if known, as in [`peak_at`]).
 fn fitted_peak(
     map: &[f64],
     [width, height]: [usize; 2],
@@ -359,7 +330,7 @@ fn first_above(line: &[f64], threshold: f64) -> Option<usize> {
 /// tested for being local maxima, and a tight search ([`first_above`]) skips to the next
 /// such cell, so the scan costs little more than one comparison per cell; equal to the plain
 /// scan of every cell ([`second_peak_reference`], tested). With the maxima of the rows
-/// (`row_max`, see [`peak_at_with_row_maxima`]) a row none of whose values exceeds the second
+/// (`row_max`, see [`peak_at`]) a row none of whose values exceeds the second
 /// peak so far is passed over whole.
 fn second_peak(
     map: &[f64],

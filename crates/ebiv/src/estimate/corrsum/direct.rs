@@ -98,7 +98,7 @@ impl Accumulators {
     }
 
     /// The maximum of every row of the last plane computed by [`correlate`] (or given to
-    /// [`Accumulators::find_row_maxima`]), as [`crate::estimate::peak::peak_at_with_row_maxima`]
+    /// [`Accumulators::find_row_maxima`]), as [`crate::estimate::peak::peak_at`]
     /// takes them.
     pub fn row_maxima(&self) -> &[f64] {
         &self.row_max
@@ -146,12 +146,30 @@ pub(super) fn correlate(
     if acc.shape != shape {
         *acc = Accumulators::new(shape);
     }
+    let inputs = Inputs {
+        a,
+        b,
+        stats,
+        shape,
+        overlap,
+    };
     if avx2_available() {
         #[cfg(target_arch = "x86_64")]
         // SAFETY: the processor has AVX2 (`avx2_available`).
-        return unsafe { correlate_avx2(a, b, stats, shape, overlap, plane, acc) };
+        return unsafe { correlate_avx2(inputs, plane, acc) };
     }
-    correlate_portable(a, b, stats, shape, overlap, plane, acc)
+    correlate_portable(inputs, plane, acc)
+}
+
+/// What [`correlate`] correlates: the sub-volumes, their slice statistics, the plane's shape
+/// and the overlap normalisation.
+#[derive(Clone, Copy)]
+pub(super) struct Inputs<'a> {
+    pub a: SubVolume<'a>,
+    pub b: SubVolume<'a>,
+    pub stats: &'a [SliceStats],
+    pub shape: PlaneShape,
+    pub overlap: &'a Overlap,
 }
 
 /// [`correlate_portable`] compiled for AVX2 ([`crate::simd`]): the lag loops of the final
@@ -163,29 +181,28 @@ pub(super) fn correlate(
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2")]
 unsafe fn correlate_avx2(
-    a: SubVolume<'_>,
-    b: SubVolume<'_>,
-    stats: &[SliceStats],
-    shape: PlaneShape,
-    overlap: &Overlap,
+    inputs: Inputs<'_>,
     plane: &mut [f64],
     acc: &mut Accumulators,
 ) -> Option<usize> {
-    correlate_portable(a, b, stats, shape, overlap, plane, acc)
+    correlate_portable(inputs, plane, acc)
 }
 
 /// [`correlate`] with accumulators of the plane's shape, in the build for every x86-64
 /// processor (or, inlined into [`correlate_avx2`], the AVX2 build).
 #[inline(always)]
 pub(super) fn correlate_portable(
-    a: SubVolume<'_>,
-    b: SubVolume<'_>,
-    stats: &[SliceStats],
-    shape: PlaneShape,
-    overlap: &Overlap,
+    inputs: Inputs<'_>,
     plane: &mut [f64],
     acc: &mut Accumulators,
 ) -> Option<usize> {
+    let Inputs {
+        a,
+        b,
+        stats,
+        shape,
+        overlap,
+    } = inputs;
     debug_assert_eq!(acc.shape, shape, "accumulators of another plane shape");
     let (pw, ph) = (shape.plane_width(), shape.plane_height());
     let dw = pw + 1;

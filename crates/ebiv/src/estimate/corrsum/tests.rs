@@ -150,8 +150,14 @@ fn direct_fft_and_definition_agree_on_random_inputs() {
         // the same bits.
         let mut portable = vec![0.0; pw * ph];
         let mut fresh = direct::Accumulators::new(shape);
-        let best_portable =
-            direct::correlate_portable(a, b, &stats, shape, &overlap, &mut portable, &mut fresh);
+        let inputs = direct::Inputs {
+            a,
+            b,
+            stats: &stats,
+            shape,
+            overlap: &overlap,
+        };
+        let best_portable = direct::correlate_portable(inputs, &mut portable, &mut fresh);
         assert_eq!(best_portable, best, "case {case}");
         let bits = |plane: &[f64]| plane.iter().map(|v| v.to_bits()).collect::<Vec<_>>();
         assert_eq!(bits(&direct), bits(&portable), "case {case}");
