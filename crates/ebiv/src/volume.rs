@@ -242,18 +242,125 @@ impl AffinePaths {
 /// folds the window over itself within the slab and the events are left as they are.
 const MAX_STRAIN: f64 = 8.0;
 
-/// Indices of `t` that can hold times in `[start_us, end_us)`: found by binary search when
-/// `t` is in time order (as readers deliver it, apart from rare EVT 3.0 time regressions),
-/// otherwise all of them.
-fn candidate_range(t: &[i64], start_us: i64, end_us: i64) -> std::ops::Range<usize> {
-    // A branch-free fold, so the check costs about one compare per event.
-    let sorted = t.windows(2).fold(true, |ok, w| ok & (w[0] <= w[1]));
-    if sorted {
+/// Indices of `t` that can hold times in `[start_us, end_us)`, and whether `t` is in time
+/// order: found by binary search when it is (as readers deliver it, apart from rare EVT 3.0
+/// time regressions), otherwise all of them.
+fn candidate_range(t: &[i64], start_us: i64, end_us: i64) -> (std::ops::Range<usize>, bool) {
+    if in_time_order(t) {
         let from = t.partition_point(|&v| v < start_us);
-        from..t.partition_point(|&v| v < end_us).max(from)
+        (from..t.partition_point(|&v| v < end_us).max(from), true)
     } else {
-        0..t.len()
+        (0..t.len(), false)
     }
+}
+
+/// `v / d` for any `v < 2¹⁶` as a multiplication and a shift, which vectorises where the
+/// division and a table lookup do not: with `m = ⌈2³²/d⌉ = 2³²/d + e`, `0 ≤ e < 1`,
+/// `v·m/2³² = v/d + v·e/2³²` exceeds `v/d` by less than `2⁻¹⁶ ≤ 1/d` (for `d ≤ 2¹⁶`), too
+/// little to reach the next integer; for `d > 2¹⁶` both sides are 0.
+#[derive(Debug, Clone, Copy)]
+struct Divider {
+    m: u64,
+}
+
+impl Divider {
+    fn new(d: u32) -> Self {
+        Divider {
+            m: (1u64 << 32).div_ceil(u64::from(d.max(1))),
+        }
+    }
+
+    #[inline(always)]
+    fn divide(self, v: u16) -> u32 {
+        ((u64::from(v) * self.m) >> 32) as u32
+    }
+}
+
+/// The filter of [`Slab::build`]: the tile of each event, or `skipped`.
+struct TileClassifier {
+    start_us: i64,
+    end_us: i64,
+    width: u32,
+    height: u32,
+    tile: Divider,
+    tiles_x: u32,
+    polarity: PolaritySelection,
+    skipped: u32,
+}
+
+impl TileClassifier {
+    /// The tile of every event of the columns (cut to the shortest), in the AVX2 build
+    /// where the processor has it ([`crate::simd`]): its 64-bit comparisons and products
+    /// run four lanes wide (a slab build then takes 30 % fewer instructions, callgrind).
+    fn classify(&self, t: &[i64], x: &[u16], y: &[u16], p: &[u8]) -> Vec<u32> {
+        if crate::simd::avx2_available() {
+            #[cfg(target_arch = "x86_64")]
+            // SAFETY: the processor has AVX2 (`avx2_available`).
+            return unsafe { self.classify_avx2(t, x, y, p) };
+        }
+        self.classify_portable(t, x, y, p)
+    }
+
+    /// [`TileClassifier::classify_portable`] compiled for AVX2.
+    ///
+    /// # Safety
+    /// Only where the processor has AVX2 ([`crate::simd::avx2_available`]).
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2")]
+    unsafe fn classify_avx2(&self, t: &[i64], x: &[u16], y: &[u16], p: &[u8]) -> Vec<u32> {
+        self.classify_portable(t, x, y, p)
+    }
+
+    /// [`TileClassifier::classify`] in straight-line code that the compiler vectorises: no
+    /// branch, no lookup.
+    #[inline(always)]
+    fn classify_portable(&self, t: &[i64], x: &[u16], y: &[u16], p: &[u8]) -> Vec<u32> {
+        let n = t.len().min(x.len()).min(y.len()).min(p.len());
+        let (t, x, y, p) = (&t[..n], &x[..n], &y[..n], &p[..n]);
+        let (accept_off, accept_on) = (self.polarity.accepts(0), self.polarity.accepts(1));
+        let mut tiles = vec![0u32; n];
+        for i in 0..n {
+            let (xi, yi) = (u32::from(x[i]), u32::from(y[i]));
+            let accepted = if p[i] != 0 { accept_on } else { accept_off };
+            let keep = (t[i] >= self.start_us)
+                & (t[i] < self.end_us)
+                & (xi < self.width)
+                & (yi < self.height)
+                & accepted;
+            // (Wrapping: an event outside the sensor may give a meaningless index, masked.)
+            let tile = (self.tile.divide(y[i]).wrapping_mul(self.tiles_x))
+                .wrapping_add(self.tile.divide(x[i]));
+            // A select by mask (`if` here compiled to a branch).
+            let mask = u32::from(keep).wrapping_neg();
+            tiles[i] = tile & mask | self.skipped & !mask;
+        }
+        tiles
+    }
+}
+
+/// Whether `t` is in time order, in the AVX2 build where the processor has it (SSE2 has no
+/// 64-bit comparison; AVX2 compares four times per instruction).
+fn in_time_order(t: &[i64]) -> bool {
+    /// A branch-free fold, so the check costs about one compare per event.
+    #[inline(always)]
+    fn fold(t: &[i64]) -> bool {
+        t.windows(2).fold(true, |ok, w| ok & (w[0] <= w[1]))
+    }
+    /// [`fold`] compiled for AVX2.
+    ///
+    /// # Safety
+    /// Only where the processor has AVX2 ([`crate::simd::avx2_available`]).
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2")]
+    unsafe fn fold_avx2(t: &[i64]) -> bool {
+        fold(t)
+    }
+    if crate::simd::avx2_available() {
+        #[cfg(target_arch = "x86_64")]
+        // SAFETY: the processor has AVX2 (`avx2_available`).
+        return unsafe { fold_avx2(t) };
+    }
+    fold(t)
 }
 
 /// Events of the time interval `[start_us, end_us)` over the whole sensor, grouped by tile.
@@ -293,13 +400,7 @@ impl Slab {
         let tiles_y = geometry.height.div_ceil(tile).max(1);
         let n_tiles = (tiles_x * tiles_y) as usize;
         let n = t.len().min(x.len()).min(y.len()).min(p.len());
-        let candidates = candidate_range(&t[..n], start_us, end_us);
-        // Tile column of every pixel column and first tile of every pixel row, so the filter
-        // below needs no division.
-        // (Coordinates are u16: no more entries than that, whatever a header declares.)
-        let (width, height) = (geometry.width.min(1 << 16), geometry.height.min(1 << 16));
-        let tile_column: Vec<u32> = (0..width.max(1)).map(|c| c / tile).collect();
-        let tile_row: Vec<u32> = (0..height.max(1)).map(|r| r / tile * tiles_x).collect();
+        let (candidates, in_time_order) = candidate_range(&t[..n], start_us, end_us);
         // Tile of every candidate; events outside the interval, the sensor or the polarity
         // selection go to an extra last bucket, `skipped`. The filter runs once, and neither
         // it nor the passes below branch on an event: with both polarities recorded, half of
@@ -307,19 +408,19 @@ impl Slab {
         // about one misprediction per two events (callgrind's branch simulation).
         let skipped = n_tiles as u32;
         let r = candidates.clone();
-        let tiles: Vec<u32> = (t[r.clone()].iter().zip(&x[r.clone()]))
-            .zip(y[r.clone()].iter().zip(&p[r]))
-            .map(|((&t, &x), (&y, &p))| {
-                let (x, y) = (u32::from(x), u32::from(y));
-                let keep = (t >= start_us) & (t < end_us) & (x < width) & (y < height);
-                // Clamped lookups, taken whether or not the event is kept (no branch).
-                let column = tile_column[(x as usize).min(tile_column.len() - 1)];
-                let row = tile_row[(y as usize).min(tile_row.len() - 1)];
-                // A select by mask (`if` here compiled to a branch).
-                let mask = u32::from(keep & polarity.accepts(p)).wrapping_neg();
-                (row + column) & mask | skipped & !mask
-            })
-            .collect();
+        let tiles = TileClassifier {
+            start_us,
+            end_us,
+            // (Coordinates are u16: no more columns or rows than that, whatever a header
+            // declares.)
+            width: geometry.width.min(1 << 16),
+            height: geometry.height.min(1 << 16),
+            tile: Divider::new(tile),
+            tiles_x,
+            polarity,
+            skipped,
+        }
+        .classify(&t[r.clone()], &x[r.clone()], &y[r.clone()], &p[r]);
         // Bucket sizes, then their offsets: bucket `k` starts at `counts[k]`.
         let mut counts = vec![0usize; n_tiles + 2];
         for &k in &tiles {
@@ -337,12 +438,21 @@ impl Slab {
             vec![0u16; total + 1],
             vec![0i64; total + 1],
         );
-        for (i, &k) in candidates.zip(&tiles) {
-            let at = fill[k as usize];
-            fill[k as usize] += usize::from(k != skipped);
-            sx[at] = x[i];
-            sy[at] = y[i];
-            st[at] = t[i];
+        let r = candidates.clone();
+        let events = tiles
+            .iter()
+            .zip(&x[r.clone()])
+            .zip(&y[r.clone()])
+            .zip(&t[r]);
+        for (((&k, &xi), &yi), &ti) in events {
+            // `k ≤ skipped` and `at ≤ total`: the clamps, which change nothing, spare the
+            // bounds tests.
+            let k = (k as usize).min(n_tiles);
+            let at = fill[k].min(total);
+            fill[k] += usize::from(k != n_tiles);
+            sx[at] = xi;
+            sy[at] = yi;
+            st[at] = ti;
         }
         sx.truncate(total);
         sy.truncate(total);
@@ -359,7 +469,10 @@ impl Slab {
             y: sy,
             t: st,
         };
-        slab.restore_time_order();
+        // Tiles of events in time order are in time order.
+        if !in_time_order {
+            slab.restore_time_order();
+        }
         slab
     }
 
@@ -539,11 +652,16 @@ mod tests {
         t_from: i64,
         t_to: i64,
         slab: (i64, i64),
+        polarity: PolaritySelection,
     ) -> Vec<(i64, i64, i64)> {
         let mut v: Vec<_> = ev
             .iter()
             .filter(|e| e.0 >= slab.0 && e.0 < slab.1 && e.0 >= t_from && e.0 < t_to)
-            .filter(|e| e.3 == 1)
+            .filter(|e| match polarity {
+                PolaritySelection::Positive => e.3 != 0,
+                PolaritySelection::Negative => e.3 == 0,
+                PolaritySelection::Both => true,
+            })
             .filter(|e| {
                 let (x, y) = (e.1 as i64, e.2 as i64);
                 x >= w.x0 && x < w.x0 + w.width as i64 && y >= w.y0 && y < w.y0 + w.height as i64
@@ -720,13 +838,97 @@ mod tests {
         }
     }
 
+    #[test]
+    fn the_divider_divides_every_coordinate_exactly() {
+        let divisors = (1..=300).chain([511, 512, 1000, 4095, 4096, 65_535, 65_536, 65_537]);
+        for d in divisors.chain([u32::MAX]) {
+            let divider = Divider::new(d);
+            for v in 0..=u16::MAX {
+                assert_eq!(divider.divide(v), u32::from(v) / d, "{v} / {d}");
+            }
+        }
+    }
+
+    #[test]
+    fn both_builds_of_the_filter_give_the_tiles_of_the_definition() {
+        // Times around the interval, coordinates up to u16::MAX (outside the sensor, where
+        // the tile arithmetic wraps), all polarity values, all selections.
+        let n = 1000;
+        let mut state = 7u64;
+        let mut next = move || {
+            state = state
+                .wrapping_mul(6_364_136_223_846_793_005)
+                .wrapping_add(1);
+            (state >> 33) as u32
+        };
+        let t: Vec<i64> = (0..n).map(|_| i64::from(next() % 1200) - 100).collect();
+        let x: Vec<u16> = (0..n)
+            .map(|i| {
+                if i % 7 == 0 {
+                    u16::MAX - next() as u16 % 8
+                } else {
+                    (next() % 1300) as u16
+                }
+            })
+            .collect();
+        let y: Vec<u16> = (0..n)
+            .map(|i| {
+                if i % 11 == 0 {
+                    u16::MAX
+                } else {
+                    (next() % 730) as u16
+                }
+            })
+            .collect();
+        let p: Vec<u8> = (0..n).map(|_| (next() % 3) as u8).collect();
+        for polarity in [
+            PolaritySelection::Positive,
+            PolaritySelection::Negative,
+            PolaritySelection::Both,
+        ] {
+            for tile in [1, 7, 20, 64, 1000] {
+                let (width, height) = (1280u32, 720u32);
+                let tiles_x = width.div_ceil(tile);
+                let skipped = tiles_x * height.div_ceil(tile);
+                let classifier = TileClassifier {
+                    start_us: 0,
+                    end_us: 1000,
+                    width,
+                    height,
+                    tile: Divider::new(tile),
+                    tiles_x,
+                    polarity,
+                    skipped,
+                };
+                let expected: Vec<u32> = (0..n)
+                    .map(|i| {
+                        let (xi, yi) = (u32::from(x[i]), u32::from(y[i]));
+                        let inside = (0..1000).contains(&t[i]) && xi < width && yi < height;
+                        if inside && polarity.accepts(p[i]) {
+                            yi / tile * tiles_x + xi / tile
+                        } else {
+                            skipped
+                        }
+                    })
+                    .collect();
+                assert_eq!(classifier.classify_portable(&t, &x, &y, &p), expected);
+                assert_eq!(classifier.classify(&t, &x, &y, &p), expected);
+            }
+        }
+    }
+
     proptest! {
         #[test]
         fn gather_matches_brute_force(
             ev in prop::collection::vec((0i64..1000, 0u16..70, 0u16..50, 0u8..2), 0..400),
             x0 in -20i64..80, y0 in -20i64..60, w in 1u32..40, h in 1u32..40,
-            t_from in -10i64..1000, dt in 0i64..1000, tile in 1u32..20,
+            t_from in -10i64..1000, dt in 0i64..1000, tile in 1u32..20, selection in 0usize..3,
         ) {
+            let polarity = [
+                PolaritySelection::Positive,
+                PolaritySelection::Negative,
+                PolaritySelection::Both,
+            ][selection];
             // In file order (any) and in time order, where the slab's time range is found
             // by binary search.
             let mut sorted = ev.clone();
@@ -737,7 +939,7 @@ mod tests {
                 let y: Vec<u16> = ev.iter().map(|e| e.2).collect();
                 let p: Vec<u8> = ev.iter().map(|e| e.3).collect();
                 let slab = Slab::build(&t, &x, &y, &p, Geometry::new(64, 48), 100, 900,
-                    PolaritySelection::Positive, tile);
+                    polarity, tile);
                 let window = Window { x0, y0, width: w, height: h };
                 let mut out = WindowEvents::default();
                 slab.gather(&window, t_from, t_from + dt, 50, &mut out);
@@ -747,7 +949,8 @@ mod tests {
                 got.sort();
                 // Events outside the 64×48 geometry are ignored by the slab.
                 let inside: Vec<_> = ev.iter().copied().filter(|e| e.1 < 64 && e.2 < 48).collect();
-                prop_assert_eq!(&got, &brute_force(&inside, &window, t_from, t_from + dt, (100, 900)));
+                let expected = brute_force(&inside, &window, t_from, t_from + dt, (100, 900), polarity);
+                prop_assert_eq!(&got, &expected);
                 prop_assert_eq!(slab.count(&window, t_from, t_from + dt), got.len());
             }
         }
