@@ -622,9 +622,16 @@ impl CorrSumScratch {
         }
         if deformation.is_none() && shift.is_none() {
             // Raw events sit on pixels inside the window, at or after `from`.
-            if voxeliser.is_narrow() {
+            // `visit` delivers exactly the events of the window and of `[from, to)`, the
+            // sub-volume's `length_us`.
+            debug_assert_eq!(to - from, length_us);
+            if voxeliser.is_narrow() && count {
                 slab.visit(window, from, to, from, |x, y, t| {
-                    voxeliser.add_narrow_pixel(x as usize, y as usize, t)
+                    voxeliser.add_narrow_inside::<true>(x as usize, y as usize, t)
+                });
+            } else if voxeliser.is_narrow() {
+                slab.visit(window, from, to, from, |x, y, t| {
+                    voxeliser.add_narrow_inside::<false>(x as usize, y as usize, t)
                 });
             } else {
                 slab.visit(window, from, to, from, |x, y, t| {
