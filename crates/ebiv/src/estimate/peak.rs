@@ -356,7 +356,8 @@ fn second_peak(
             let pending = &mut pending[..height];
             loop {
                 let (r, highest) = highest_row(pending);
-                if !(highest > scan.second) {
+                // (Neither is NaN: row maxima never are, nor is the second peak so far.)
+                if highest <= scan.second {
                     break;
                 }
                 pending[r] = f64::NEG_INFINITY;
