@@ -290,8 +290,8 @@ struct TileClassifier {
 
 impl TileClassifier {
     /// The tile of every event of the columns (cut to the shortest), in the AVX2 build
-    /// where the processor has it ([`crate::simd`]): its 64-bit comparisons and products
-    /// run four lanes wide (a slab build then takes 30 % fewer instructions, callgrind).
+    /// where the processor has it ([`crate::simd`]): its 64-bit time comparisons run four
+    /// lanes wide (a slab build then takes 30 % fewer instructions, callgrind).
     fn classify(&self, t: &[i64], x: &[u16], y: &[u16], p: &[u8]) -> Vec<u32> {
         if crate::simd::avx2_available() {
             #[cfg(target_arch = "x86_64")]
@@ -398,9 +398,10 @@ impl Slab {
         let tile = tile.max(1);
         let tiles_x = geometry.width.div_ceil(tile).max(1);
         let tiles_y = geometry.height.div_ceil(tile).max(1);
-        let n_tiles = (tiles_x * tiles_y) as usize;
+        // (In usize: a 65 536 × 65 536 header with 1 px tiles overflows u32.)
+        let n_tiles = tiles_x as usize * tiles_y as usize;
         let n = t.len().min(x.len()).min(y.len()).min(p.len());
-        let (candidates, in_time_order) = candidate_range(&t[..n], start_us, end_us);
+        let (candidates, sorted) = candidate_range(&t[..n], start_us, end_us);
         // Tile of every candidate; events outside the interval, the sensor or the polarity
         // selection go to an extra last bucket, `skipped`. The filter runs once, and neither
         // it nor the passes below branch on an event: with both polarities recorded, half of
@@ -470,9 +471,15 @@ impl Slab {
             t: st,
         };
         // Tiles of events in time order are in time order.
-        if !in_time_order {
+        if !sorted {
             slab.restore_time_order();
         }
+        // `visit`'s binary searches, and the binning that trusts what it delivers, need every
+        // tile in time order.
+        debug_assert!(slab.tile_start.windows(2).all(|k| {
+            let times = &slab.t[k[0]..k[1]];
+            times.windows(2).all(|p| p[0] <= p[1])
+        }));
         slab
     }
 
@@ -559,7 +566,8 @@ impl Slab {
                 let (a, b) = (self.tile_start[k], self.tile_start[k + 1]);
                 let times = &self.t[a..b];
                 let lo = a + times.partition_point(|&t| t < t_from);
-                let hi = a + times.partition_point(|&t| t < t_to);
+                // (An empty interval, `t_to < t_from`, gives no events.)
+                let hi = (a + times.partition_point(|&t| t < t_to)).max(lo);
                 let events = self.x[lo..hi]
                     .iter()
                     .zip(&self.y[lo..hi])

@@ -621,9 +621,8 @@ impl CorrSumScratch {
             None => voxeliser.begin(length_us, slices, count),
         }
         if deformation.is_none() && shift.is_none() {
-            // Raw events sit on pixels inside the window, at or after `from`.
-            // `visit` delivers exactly the events of the window and of `[from, to)`, the
-            // sub-volume's `length_us`.
+            // Raw events sit on pixels: `visit` delivers exactly the events of the window
+            // and of `[from, to)`, the sub-volume's `length_us`.
             debug_assert_eq!(to - from, length_us);
             if voxeliser.is_narrow() && count {
                 slab.visit(window, from, to, from, |x, y, t| {
