@@ -747,6 +747,11 @@ mod tests {
         slab.gather_deformed(&window, i64::MIN, i64::MAX, 20, &d, &mut out);
         assert_eq!(out.len(), 3);
         assert!(out.x.iter().chain(&out.y).all(|v| v.is_finite()));
+        // A reversed interval around the events of a tile holds none (and does not panic).
+        let mut reversed_window = WindowEvents::default();
+        slab.gather(&window, 25, 15, 0, &mut reversed_window);
+        assert_eq!(reversed_window.len(), 0);
+        assert_eq!(slab.count(&window, 25, 15), 0);
     }
 
     #[test]
