@@ -4,9 +4,10 @@
 //! instruction). The hottest kernels, whose loops are written as fixed-width lane arrays or
 //! as straight-line code the compiler vectorises, are compiled a second time with AVX2
 //! enabled (four `f64` or eight `f32` lanes, and 64-bit integer comparisons, which SSE2
-//! lacks) and that build is chosen where the processor has AVX2. Both builds perform the same IEEE operations in
-//! the same order (Rust never fuses a multiply and an add on its own), so results are
-//! bit-identical on every machine, as the determinism rule of the design requires.
+//! lacks), and that build is chosen where the processor has AVX2. Both builds perform the
+//! same IEEE operations in the same order (Rust never fuses a multiply and an add on its
+//! own), so results are bit-identical on every machine, as the determinism rule of the
+//! design requires.
 
 /// True where the AVX2 builds of the kernels may run: x86-64 processors with AVX2, detected
 /// at run time (the answer is cached by the standard library).
