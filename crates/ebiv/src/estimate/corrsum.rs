@@ -624,14 +624,14 @@ impl CorrSumScratch {
             // Raw events sit on pixels: `visit` delivers exactly the events of the window
             // and of `[from, to)`, the sub-volume's `length_us`.
             debug_assert_eq!(to - from, length_us);
+            // One closure per weighting, so that each loop is compiled without its test.
+            fn narrow<const COUNT: bool>(v: &mut Voxeliser) -> impl FnMut(i64, i64, i64) + '_ {
+                move |x, y, t| v.add_narrow_inside::<COUNT>(x as usize, y as usize, t)
+            }
             if voxeliser.is_narrow() && count {
-                slab.visit(window, from, to, from, |x, y, t| {
-                    voxeliser.add_narrow_inside::<true>(x as usize, y as usize, t)
-                });
+                slab.visit(window, from, to, from, narrow::<true>(voxeliser));
             } else if voxeliser.is_narrow() {
-                slab.visit(window, from, to, from, |x, y, t| {
-                    voxeliser.add_narrow_inside::<false>(x as usize, y as usize, t)
-                });
+                slab.visit(window, from, to, from, narrow::<false>(voxeliser));
             } else {
                 slab.visit(window, from, to, from, |x, y, t| {
                     voxeliser.add_pixel(x as usize, y as usize, t)

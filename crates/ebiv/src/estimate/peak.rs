@@ -159,9 +159,9 @@ pub fn argmax(map: &[f64]) -> Option<usize> {
 /// [`find_peak`] for a map whose maximum is already known to be at index `best` (as
 /// [`argmax`] finds it, e.g. tracked while the map was computed). With the map's row maxima
 /// (`row_max[r]`: the largest value of row `r` as [`argmax`] compares, −∞ if none; a NaN
-/// only costs the skip of its row), as a kernel can track them while computing the map, the
-/// search for the second peak passes over every row whose maximum is not above the second
-/// peak found so far with one comparison; the peak is the same. `None` for an empty map, a
+/// only makes its row be scanned), as a kernel can track them while computing the map, the
+/// search for the second peak scans only the rows whose maximum may exceed it
+/// ([`second_peak`]); the peak is the same. `None` for an empty map, a
 /// map shorter than `width × height`, `best` outside it, or `row_max` shorter than the map.
 pub fn peak_at(
     map: &[f64],
@@ -360,7 +360,8 @@ fn second_peak(
             let pending = &mut pending[..height];
             loop {
                 let (r, highest) = highest_row(pending);
-                // (Neither is NaN: row maxima never are, nor is the second peak so far.)
+                // (Neither is NaN: NaN maxima became +∞ above, and the second peak so far
+                // is −∞ or a finite value.)
                 if highest <= scan.second {
                     break;
                 }
