@@ -27,7 +27,8 @@ pub(super) struct Accumulators {
     /// The cell index `y · stride + x` of each voxel of the current `b` slice in `pairs`
     /// (offset per `a` voxel).
     linear: Vec<usize>,
-    /// 2-D difference array of the rectangle corrections, `(pw + 1) × (ph + 1)`.
+    /// 2-D difference array of the rectangle corrections, `(pw + 1) × (ph + 1)`, in a
+    /// power-of-two long vector ([`index_mask`]; the cells past it stay zero).
     diff: Vec<f64>,
     /// Running column sums of `diff` during the final pass, `pw`.
     column: Vec<f64>,
@@ -44,12 +45,22 @@ pub(super) struct Accumulators {
 /// range of columns and a range of rows): columns `[x0, x1 + 1]` and row offsets
 /// `[y0 · dw, (y1 + 1) · dw]`, for `a`'s voxels (`Σ_O a`) and `b`'s (`Σ_O b(·+Δ)`). The
 /// lookups replace the clipping and the products per voxel; the corners are the same.
+/// Each table is a power of two long ([`table_mask`]), the entries past the window's
+/// width (height) unused.
 #[derive(Debug, Clone)]
 struct Corners {
     a_cols: Vec<[usize; 2]>,
     a_rows: Vec<[usize; 2]>,
     b_cols: Vec<[usize; 2]>,
     b_rows: Vec<[usize; 2]>,
+}
+
+/// `table` padded with copies of its last entry to a power of two long (never read: voxel
+/// coordinates lie within the window).
+fn padded(mut table: Vec<[usize; 2]>) -> Vec<[usize; 2]> {
+    let last = table.last().copied().unwrap_or_default();
+    table.resize(table.len().next_power_of_two(), last);
+    table
 }
 
 impl Corners {
@@ -66,19 +77,27 @@ impl Corners {
         };
         Corners {
             // Voxel p counts for the lags with p + Δ inside the window.
-            a_cols: (0..w)
-                .map(|x| span(rx - x, rx + w - 1 - x, 2 * rx, 1))
-                .collect(),
-            a_rows: (0..h)
-                .map(|y| span(ry - y, ry + h - 1 - y, 2 * ry, dw))
-                .collect(),
+            a_cols: padded(
+                (0..w)
+                    .map(|x| span(rx - x, rx + w - 1 - x, 2 * rx, 1))
+                    .collect(),
+            ),
+            a_rows: padded(
+                (0..h)
+                    .map(|y| span(ry - y, ry + h - 1 - y, 2 * ry, dw))
+                    .collect(),
+            ),
             // Voxel q counts for the lags with q − Δ inside the window.
-            b_cols: (0..w)
-                .map(|x| span(rx + x - w + 1, rx + x, 2 * rx, 1))
-                .collect(),
-            b_rows: (0..h)
-                .map(|y| span(ry + y - h + 1, ry + y, 2 * ry, dw))
-                .collect(),
+            b_cols: padded(
+                (0..w)
+                    .map(|x| span(rx + x - w + 1, rx + x, 2 * rx, 1))
+                    .collect(),
+            ),
+            b_rows: padded(
+                (0..h)
+                    .map(|y| span(ry + y - h + 1, ry + y, 2 * ry, dw))
+                    .collect(),
+            ),
         }
     }
 }
@@ -89,7 +108,7 @@ impl Accumulators {
         Accumulators {
             pairs: vec![0.0; (PairLayout::of(shape).stride * ph).next_power_of_two()],
             linear: Vec::new(),
-            diff: vec![0.0; (pw + 1) * (ph + 1)],
+            diff: vec![0.0; ((pw + 1) * (ph + 1)).next_power_of_two()],
             column: vec![0.0; pw],
             row_max: vec![f64::NEG_INFINITY; ph],
             corners: Corners::new(shape),
@@ -238,15 +257,20 @@ pub(super) fn correlate_portable(
             add_pair_products(pairs, layout, shape, s.weight, a_slice, b_slice, |j| bv[j]);
         }
         // Σ_O a and Σ_O b(·+Δ), as [`Corners`] gives the rectangles.
-        for i in a.range(s.z) {
-            let (x, y) = (ax[i] as usize, ay[i] as usize);
-            let c = -s.weight * s.mean_b * av[i];
-            add_rectangle(diff, corners.a_cols[x], corners.a_rows[y], c);
+        let (ca, cb) = (-s.weight * s.mean_b, -s.weight * s.mean_a);
+        let (a_cols, a_rows) = (&corners.a_cols[..], &corners.a_rows[..]);
+        let (b_cols, b_rows) = (&corners.b_cols[..], &corners.b_rows[..]);
+        if a.vox.unit {
+            add_rectangles(diff, (a_cols, a_rows), (a_slice.0, a_slice.1), |_| ca);
+        } else {
+            add_rectangles(diff, (a_cols, a_rows), (a_slice.0, a_slice.1), |i| {
+                ca * a_slice.2[i]
+            });
         }
-        for ((&x, &y), &v) in bx.iter().zip(by).zip(bv) {
-            let c = -s.weight * s.mean_a * v;
-            let (cols, rows) = (corners.b_cols[x as usize], corners.b_rows[y as usize]);
-            add_rectangle(diff, cols, rows, c);
+        if b.vox.unit {
+            add_rectangles(diff, (b_cols, b_rows), (bx, by), |_| cb);
+        } else {
+            add_rectangles(diff, (b_cols, b_rows), (bx, by), |j| cb * bv[j]);
         }
         constant += s.weight * s.mean_a * s.mean_b;
     }
@@ -290,7 +314,7 @@ pub(super) fn correlate_portable(
             best_row = Some(iy);
         }
     }
-    diff[ph * dw..].fill(0.0);
+    diff[ph * dw..(ph + 1) * dw].fill(0.0);
     let row = best_row?;
     let first = plane[row * pw..(row + 1) * pw]
         .iter()
@@ -370,14 +394,39 @@ fn max_above(value: f64, max: f64) -> f64 {
     }
 }
 
-/// Add `c` to the lags of a rectangle, columns `[x0, x1)` and rows `[y0, y1)` (row offsets
-/// `y · dw`), of the difference array `diff`: four corner updates.
+/// Add `coefficient(i)` to the lags of the rectangle of voxel `i` at `(xs[i], ys[i])`, the
+/// columns `[x0, x1)` of `cols[x]` and the rows `[y0, y1)` (row offsets `y · dw`) of
+/// `rows[y]`, in the difference array `diff`: four corner updates per voxel. Binary voxels
+/// pass a constant coefficient (`c · 1 = c` exactly, so the product with the voxel value is
+/// left out). Every index lies within its array (voxels within the window, corners within
+/// the difference array); masking them ([`index_mask`], [`table_mask`]) changes none and
+/// leaves out the test per access.
 #[inline(always)]
-fn add_rectangle(diff: &mut [f64], [x0, x1]: [usize; 2], [y0, y1]: [usize; 2], c: f64) {
-    diff[y0 + x0] += c;
-    diff[y0 + x1] -= c;
-    diff[y1 + x0] -= c;
-    diff[y1 + x1] += c;
+fn add_rectangles(
+    diff: &mut [f64],
+    (cols, rows): (&[[usize; 2]], &[[usize; 2]]),
+    (xs, ys): (&[u16], &[u16]),
+    coefficient: impl Fn(usize) -> f64,
+) {
+    let (mask, col_mask, row_mask) = (index_mask(diff), table_mask(cols), table_mask(rows));
+    // Tables exactly `mask + 1` long, so that the compiler sees every masked index in bounds.
+    let (cols, rows) = (&cols[..=col_mask], &rows[..=row_mask]);
+    for (i, (&x, &y)) in xs.iter().zip(ys).enumerate() {
+        let [x0, x1] = cols[x as usize & col_mask];
+        let [y0, y1] = rows[y as usize & row_mask];
+        let c = coefficient(i);
+        diff[(y0 + x0) & mask] += c;
+        diff[(y0 + x1) & mask] -= c;
+        diff[(y1 + x0) & mask] -= c;
+        diff[(y1 + x1) & mask] += c;
+    }
+}
+
+/// The mask of the indices of a corner table, a power of two long ([`Corners`]).
+#[inline(always)]
+fn table_mask(table: &[[usize; 2]]) -> usize {
+    assert!(table.len().is_power_of_two());
+    table.len() - 1
 }
 
 /// The mask of the indices of `cells`, a power of two long (as [`Accumulators::new`]
