@@ -363,6 +363,24 @@ fn in_time_order(t: &[i64]) -> bool {
     fold(t)
 }
 
+/// The events of one tile with time in an interval, in slab coordinates (sensor pixels) and
+/// times (µs), as [`Slab::visit_runs`] delivers them: three columns of equal length.
+#[derive(Debug, Clone, Copy)]
+pub struct TileRun<'a> {
+    pub x: &'a [u16],
+    pub y: &'a [u16],
+    pub t: &'a [i64],
+}
+
+/// What [`Slab::visit_runs`] delivers the events to.
+pub trait TileVisitor {
+    /// The events of a tile inside the window: all of them are visited.
+    fn run(&mut self, events: TileRun<'_>);
+    /// One event inside the window, from a tile that reaches past it: local column and row,
+    /// time relative to the reference time.
+    fn event(&mut self, x: i64, y: i64, t: i64);
+}
+
 /// Events of the time interval `[start_us, end_us)` over the whole sensor, grouped by tile.
 #[derive(Debug, Clone)]
 pub struct Slab {
@@ -550,7 +568,48 @@ impl Slab {
         t_from: i64,
         t_to: i64,
         t_ref_us: i64,
-        mut f: impl FnMut(i64, i64, i64),
+        f: impl FnMut(i64, i64, i64),
+    ) {
+        /// Every event through `f`, in local coordinates.
+        struct EachEvent<F> {
+            f: F,
+            origin: [i64; 3],
+        }
+        impl<F: FnMut(i64, i64, i64)> TileVisitor for EachEvent<F> {
+            #[inline(always)]
+            fn run(&mut self, run: TileRun<'_>) {
+                let [x0, y0, t0] = self.origin;
+                for ((&x, &y), &t) in run.x.iter().zip(run.y).zip(run.t) {
+                    (self.f)(x as i64 - x0, y as i64 - y0, t - t0);
+                }
+            }
+            #[inline(always)]
+            fn event(&mut self, x: i64, y: i64, t: i64) {
+                (self.f)(x, y, t)
+            }
+        }
+        let origin = [window.x0, window.y0, t_ref_us];
+        self.visit_runs(
+            window,
+            (t_from, t_to),
+            t_ref_us,
+            &mut EachEvent { f, origin },
+        );
+    }
+
+    /// The events [`Slab::visit`] visits, a tile at a time: [`TileVisitor::run`] with the
+    /// events of a tile inside the window (as the tiles of windows on a grid of half-window
+    /// steps are), in slab coordinates and times, which need no test per event;
+    /// [`TileVisitor::event`] (local column and row, time relative to `t_ref_us`) for each
+    /// event inside the window of a tile that reaches past it. A visitor of runs loops over
+    /// plain slices, its own state in registers rather than reloaded per event as through a
+    /// closure.
+    pub fn visit_runs(
+        &self,
+        window: &Window,
+        (t_from, t_to): (i64, i64),
+        t_ref_us: i64,
+        visitor: &mut impl TileVisitor,
     ) {
         let x_end = window.x0 + window.width as i64;
         let y_end = window.y0 + window.height as i64;
@@ -568,23 +627,25 @@ impl Slab {
                 let lo = a + times.partition_point(|&t| t < t_from);
                 // (An empty interval, `t_to < t_from`, gives no events.)
                 let hi = (a + times.partition_point(|&t| t < t_to)).max(lo);
-                let events = self.x[lo..hi]
-                    .iter()
-                    .zip(&self.y[lo..hi])
-                    .zip(&self.t[lo..hi]);
+                let events = TileRun {
+                    x: &self.x[lo..hi],
+                    y: &self.y[lo..hi],
+                    t: &self.t[lo..hi],
+                };
                 let tile = self.tile as i64;
                 let (left, top) = (tx as i64 * tile, ty as i64 * tile);
-                // A tile inside the window (as the tiles of windows on a grid of half-window
-                // steps are) needs no test per event. (One call of `f`, which the compiler
-                // then inlines.)
                 let covered = left >= window.x0
                     && left + tile <= x_end
                     && top >= window.y0
                     && top + tile <= y_end;
-                for ((&x, &y), &t) in events {
+                if covered {
+                    visitor.run(events);
+                    continue;
+                }
+                for ((&x, &y), &t) in events.x.iter().zip(events.y).zip(events.t) {
                     let (x, y) = (x as i64, y as i64);
-                    if covered || (x >= window.x0 && x < x_end && y >= window.y0 && y < y_end) {
-                        f(x - window.x0, y - window.y0, t - t_ref_us);
+                    if x >= window.x0 && x < x_end && y >= window.y0 && y < y_end {
+                        visitor.event(x - window.x0, y - window.y0, t - t_ref_us);
                     }
                 }
             }

@@ -32,7 +32,7 @@ use super::{Estimator, Prediction, WindowEstimate};
 use crate::error::{Error, Result};
 use crate::field::Status;
 use crate::grid::Window;
-use crate::volume::{Deformation, Slab, WindowEvents};
+use crate::volume::{Deformation, Slab, TileRun, TileVisitor, WindowEvents};
 use fit::{refine_with_kernel, SmoothingKernel};
 use fourier::Fourier;
 use voxels::{slice_statistics, Overlap, PlaneShape, SliceStats, Voxeliser, Voxels};
@@ -624,14 +624,15 @@ impl CorrSumScratch {
             // Raw events sit on pixels: `visit` delivers exactly the events of the window
             // and of `[from, to)`, the sub-volume's `length_us`.
             debug_assert_eq!(to - from, length_us);
-            // One closure per weighting, so that each loop is compiled without its test.
-            fn narrow<const COUNT: bool>(v: &mut Voxeliser) -> impl FnMut(i64, i64, i64) + '_ {
-                move |x, y, t| v.add_narrow_inside::<COUNT>(x as usize, y as usize, t)
-            }
+            // Tiles inside the window as runs; a visitor per weighting, so that each loop
+            // is compiled without its test.
+            let interval = (from, to);
             if voxeliser.is_narrow() && count {
-                slab.visit(window, from, to, from, narrow::<true>(voxeliser));
+                let mut narrow = Narrow::<true>::new(voxeliser, window, from);
+                slab.visit_runs(window, interval, from, &mut narrow);
             } else if voxeliser.is_narrow() {
-                slab.visit(window, from, to, from, narrow::<false>(voxeliser));
+                let mut narrow = Narrow::<false>::new(voxeliser, window, from);
+                slab.visit_runs(window, interval, from, &mut narrow);
             } else {
                 slab.visit(window, from, to, from, |x, y, t| {
                     voxeliser.add_pixel(x as usize, y as usize, t)
@@ -653,6 +654,32 @@ impl CorrSumScratch {
             }
         }
         voxeliser.finish(&mut self.voxels[into]);
+    }
+}
+
+/// Raw events of a narrow window into the voxeliser ([`Voxeliser::add_narrow_run`] and
+/// [`Voxeliser::add_narrow_inside`]), `COUNT` its count weighting.
+struct Narrow<'a, const COUNT: bool> {
+    voxeliser: &'a mut Voxeliser,
+    /// The window's top-left pixel and the sub-volume's start.
+    origin: [i64; 3],
+}
+
+impl<'a, const COUNT: bool> Narrow<'a, COUNT> {
+    fn new(voxeliser: &'a mut Voxeliser, window: &Window, from: i64) -> Self {
+        let origin = [window.x0, window.y0, from];
+        Narrow { voxeliser, origin }
+    }
+}
+
+impl<const COUNT: bool> TileVisitor for Narrow<'_, COUNT> {
+    fn run(&mut self, events: TileRun<'_>) {
+        self.voxeliser.add_narrow_run::<COUNT>(events, self.origin);
+    }
+
+    fn event(&mut self, x: i64, y: i64, t: i64) {
+        self.voxeliser
+            .add_narrow_inside::<COUNT>(x as usize, y as usize, t);
     }
 }
 

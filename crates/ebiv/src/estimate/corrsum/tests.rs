@@ -7,6 +7,7 @@ use super::voxels::{
 };
 use super::*;
 use crate::estimate::peak::find_peak;
+use crate::volume::TileRun;
 
 /// SplitMix64: a small deterministic generator for test inputs.
 struct Rng(u64);
@@ -260,6 +261,56 @@ fn slices_are_exact_with_and_without_the_table() {
                 z as i64,
                 t * slices as i64 / slab,
                 "T {slab}, N {slices}, t {t}"
+            );
+        }
+    }
+}
+
+/// A tile's events binned as a run ([`Voxeliser::add_narrow_run`], the path of the tiles
+/// inside a window) give the voxels of binning them one by one with every test
+/// ([`Voxeliser::add_pixel`]): both weightings, sub-volumes with and without the slice table.
+#[test]
+fn runs_bin_as_single_events() {
+    let mut rng = Rng(23);
+    let (w, h, origin) = (40usize, 33usize, [100i64, 50, 1_000]);
+    for (slab, slices) in [(10_000i64, 20usize), (200_000, 30)] {
+        for count in [false, true] {
+            let n = 500;
+            let at = |o: i64, extent: u64, rng: &mut Rng| (o as u64 + rng.below(extent)) as u16;
+            let x: Vec<u16> = (0..n).map(|_| at(origin[0], w as u64, &mut rng)).collect();
+            let y: Vec<u16> = (0..n).map(|_| at(origin[1], h as u64, &mut rng)).collect();
+            let mut t: Vec<i64> = (0..n)
+                .map(|_| origin[2] + rng.below(slab as u64) as i64)
+                .collect();
+            t.sort_unstable();
+            let mut by_run = Voxeliser::new(w, h);
+            by_run.begin(slab, slices, count);
+            assert!(by_run.is_narrow());
+            let run = TileRun {
+                x: &x,
+                y: &y,
+                t: &t,
+            };
+            if count {
+                by_run.add_narrow_run::<true>(run, origin);
+            } else {
+                by_run.add_narrow_run::<false>(run, origin);
+            }
+            let mut one_by_one = Voxeliser::new(w, h);
+            one_by_one.begin(slab, slices, count);
+            for i in 0..n {
+                let (col, row) = (x[i] as i64 - origin[0], y[i] as i64 - origin[1]);
+                one_by_one.add_pixel(col as usize, row as usize, t[i] - origin[2]);
+            }
+            let (mut a, mut b) = (Voxels::default(), Voxels::default());
+            by_run.finish(&mut a);
+            one_by_one.finish(&mut b);
+            let case = format!("T {slab} µs, {slices} slices, count {count}");
+            assert_eq!(a.slice_events.iter().sum::<usize>(), n, "{case}");
+            assert_eq!(
+                (&a.x, &a.y, &a.v, &a.start, &a.slice_events),
+                (&b.x, &b.y, &b.v, &b.start, &b.slice_events),
+                "{case}"
             );
         }
     }

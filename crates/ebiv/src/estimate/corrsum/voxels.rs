@@ -6,6 +6,7 @@
 //! bitmaps back yields each slice's voxels already sorted by row and column, which the direct
 //! kernel uses to visit only the rows within its search radius.
 
+use crate::volume::TileRun;
 #[cfg(test)]
 use crate::volume::WindowEvents;
 
@@ -130,6 +131,37 @@ pub(super) struct Voxeliser {
     target_bits: Vec<u64>,
     target_rows: Vec<u64>,
     splat: bool,
+}
+
+/// The slicing of a sub-volume: `N` slices of a `T` µs long sub-volume.
+#[derive(Debug, Clone, Copy)]
+struct SliceTiming {
+    slab_us: i64,
+    slices: usize,
+    slices_per_us: f64,
+}
+
+impl SliceTiming {
+    fn of(v: &Voxeliser) -> Self {
+        SliceTiming {
+            slab_us: v.slab_us,
+            slices: v.slices,
+            slices_per_us: v.slices_per_us,
+        }
+    }
+
+    /// `⌊t·N/T⌋` exactly (integer arithmetic: the f64 estimate is off by at most one).
+    fn slice_by_arithmetic(self, time: i64) -> usize {
+        let n = self.slices as i64;
+        let scaled = time * n;
+        let mut z = (time as f64 * self.slices_per_us) as i64;
+        if (z + 1) * self.slab_us <= scaled {
+            z += 1;
+        } else if z * self.slab_us > scaled {
+            z -= 1;
+        }
+        z.clamp(0, n - 1) as usize
+    }
 }
 
 impl Voxeliser {
@@ -320,6 +352,51 @@ impl Voxeliser {
         }
     }
 
+    /// [`Voxeliser::add_narrow_inside`] for every event of `run` (slab coordinates and
+    /// times; `origin` the window's top-left pixel and the sub-volume's start), all known to
+    /// lie in the window and the sub-volume, as [`crate::volume::Slab::visit_runs`] delivers
+    /// a tile inside the window. The same voxels in the same order; the loop works on the
+    /// arrays as local slices, so that their addresses stay in registers, and the slice of
+    /// an event comes from the table alone where it covers the sub-volume.
+    #[inline(always)]
+    pub fn add_narrow_run<const COUNT: bool>(&mut self, run: TileRun<'_>, origin: [i64; 3]) {
+        debug_assert!(self.is_narrow() && COUNT == self.count);
+        let timing = SliceTiming::of(self);
+        if self.slice_table.len() >= timing.slab_us as usize {
+            let table = std::mem::take(&mut self.slice_table);
+            self.bin_run::<COUNT>(run, origin, |time| usize::from(table[time as usize]));
+            self.slice_table = table;
+        } else {
+            self.bin_run::<COUNT>(run, origin, |time| timing.slice_by_arithmetic(time));
+        }
+    }
+
+    /// The loop of [`Voxeliser::add_narrow_run`], `slice_of(time)` the slice of a time.
+    #[inline(always)]
+    fn bin_run<const COUNT: bool>(
+        &mut self,
+        run: TileRun<'_>,
+        [x0, y0, t0]: [i64; 3],
+        slice_of: impl Fn(i64) -> usize,
+    ) {
+        let (w, h, slab_us) = (self.w, self.h, self.slab_us);
+        let slice_events = &mut self.slice_events[..];
+        let (rows, bits, counts) = (&mut self.rows[..], &mut self.bits[..], &mut self.counts[..]);
+        for ((&x, &y), &t) in run.x.iter().zip(run.y).zip(run.t) {
+            let (col, row, time) = ((x as i64 - x0) as usize, (y as i64 - y0) as usize, t - t0);
+            debug_assert!(col < w && row < h && (0..slab_us).contains(&time));
+            let z = slice_of(time);
+            slice_events[z] += 1;
+            // `col < w ≤ 64` and `row < h ≤ 64`.
+            rows[z] |= 1u64 << row;
+            bits[z * h + row] |= 1u64 << col;
+            if COUNT {
+                let c = &mut counts[(z * h + row) * w + col];
+                *c = c.saturating_add(1);
+            }
+        }
+    }
+
     /// The slice of `time` µs (in `[0, T)`): `⌊t·N/T⌋`.
     #[inline(always)]
     fn slice_of(&self, time: i64) -> usize {
@@ -329,17 +406,9 @@ impl Voxeliser {
         }
     }
 
-    /// `⌊t·N/T⌋` exactly (integer arithmetic: the f64 estimate is off by at most one).
+    /// `⌊t·N/T⌋` exactly ([`SliceTiming::slice_by_arithmetic`]).
     fn slice_by_arithmetic(&self, time: i64) -> usize {
-        let n = self.slices as i64;
-        let scaled = time * n;
-        let mut z = (time as f64 * self.slices_per_us) as i64;
-        if (z + 1) * self.slab_us <= scaled {
-            z += 1;
-        } else if z * self.slab_us > scaled {
-            z -= 1;
-        }
-        z.clamp(0, n - 1) as usize
+        SliceTiming::of(self).slice_by_arithmetic(time)
     }
 
     /// Add `weight` to pixel `(c, r)` of slice `z` (splat mode), unless it lies outside the
