@@ -492,8 +492,8 @@ impl Slab {
         if !sorted {
             slab.restore_time_order();
         }
-        // `visit`'s binary searches, and the binning that trusts what it delivers, need every
-        // tile in time order.
+        // The binary searches of `visit_runs` (and `visit`), and the binning that trusts what
+        // they deliver, need every tile in time order.
         debug_assert!(slab.tile_start.windows(2).all(|k| {
             let times = &slab.t[k[0]..k[1]];
             times.windows(2).all(|p| p[0] <= p[1])

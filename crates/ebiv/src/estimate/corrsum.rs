@@ -621,8 +621,8 @@ impl CorrSumScratch {
             None => voxeliser.begin(length_us, slices, count),
         }
         if deformation.is_none() && shift.is_none() {
-            // Raw events sit on pixels: `visit` delivers exactly the events of the window
-            // and of `[from, to)`, the sub-volume's `length_us`.
+            // Raw events sit on pixels: `visit_runs` (and `visit`) deliver exactly the events
+            // of the window and of `[from, to)`, the sub-volume's `length_us`.
             debug_assert_eq!(to - from, length_us);
             // Tiles inside the window as runs; a visitor per weighting, so that each loop
             // is compiled without its test.

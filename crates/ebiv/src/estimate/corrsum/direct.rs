@@ -409,11 +409,14 @@ fn add_rectangles(
     coefficient: impl Fn(usize) -> f64,
 ) {
     let (mask, col_mask, row_mask) = (index_mask(diff), table_mask(cols), table_mask(rows));
-    // Tables exactly `mask + 1` long, so that the compiler sees every masked index in bounds.
+    // Tables exactly `col_mask + 1` and `row_mask + 1` long, so that the compiler sees every
+    // masked index in bounds.
     let (cols, rows) = (&cols[..=col_mask], &rows[..=row_mask]);
     for (i, (&x, &y)) in xs.iter().zip(ys).enumerate() {
+        debug_assert!(x as usize <= col_mask && y as usize <= row_mask);
         let [x0, x1] = cols[x as usize & col_mask];
         let [y0, y1] = rows[y as usize & row_mask];
+        debug_assert!(y1 + x1 <= mask, "a corner past the difference array");
         let c = coefficient(i);
         diff[(y0 + x0) & mask] += c;
         diff[(y0 + x1) & mask] -= c;
@@ -430,7 +433,7 @@ fn table_mask(table: &[[usize; 2]]) -> usize {
 }
 
 /// The mask of the indices of `cells`, a power of two long (as [`Accumulators::new`]
-/// allocates `pairs`, at least as long as the cells the kernel uses). Every index the
+/// allocates `pairs` and `diff`, at least as long as the cells the kernel uses). Every index the
 /// kernel computes lies within the cells used, so masking it changes no index; it shows the
 /// compiler that the index is in bounds, and the test per update is left out.
 #[inline(always)]

@@ -325,14 +325,15 @@ impl Voxeliser {
     }
 
     /// True if rows and row masks are a single word each (window of at most 64 × 64 px),
-    /// where [`Voxeliser::add_narrow_inside`] may be used.
+    /// where [`Voxeliser::add_narrow_inside`] and [`Voxeliser::add_narrow_run`] may be used.
     pub fn is_narrow(&self) -> bool {
         self.words == 1 && self.row_words == 1
     }
 
     /// [`Voxeliser::add_pixel`] for a narrow window ([`Voxeliser::is_narrow`]) and an event
     /// known to lie in the window and the sub-volume (`col < w`, `row < h`, `0 ≤ time < T`),
-    /// as [`crate::volume::Slab::visit`] delivers them for the window and interval binned:
+    /// as [`crate::volume::Slab::visit_runs`] delivers them for the window and interval binned
+    /// (one by one from the tiles that reach past the window):
     /// no test per event, and `COUNT` (the voxeliser's count weighting) fixed at compile
     /// time. The bitmap row and the row mask are single words, found without the word
     /// arithmetic. (The tests and the weighting's branch were about a quarter of the
