@@ -17,3 +17,115 @@ pub(crate) fn avx2_available() -> bool {
     #[cfg(not(target_arch = "x86_64"))]
     false
 }
+
+/// Four `f32` lanes: one SSE register on x86-64 (every x86-64 processor has SSE2), an array
+/// elsewhere. For kernels whose lane arrays the compiler's vectoriser packs the wrong way
+/// (across the accumulators instead of along the lanes, with a shuffle per value): written
+/// with these, each line is one vector instruction. Every operation is the IEEE operation
+/// per lane (no fused multiply-add), so the results are the bits of the same operations on
+/// `[f32; 4]`, on every machine.
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct Quad(QuadLanes);
+
+#[cfg(target_arch = "x86_64")]
+type QuadLanes = std::arch::x86_64::__m128;
+#[cfg(not(target_arch = "x86_64"))]
+type QuadLanes = [f32; 4];
+
+#[cfg(target_arch = "x86_64")]
+impl Quad {
+    /// All lanes +0.
+    #[inline(always)]
+    pub fn zero() -> Quad {
+        // SAFETY: SSE is part of the x86-64 baseline (every x86-64 processor has it).
+        Quad(unsafe { std::arch::x86_64::_mm_setzero_ps() })
+    }
+
+    /// `v` in every lane.
+    #[inline(always)]
+    pub fn splat(v: f32) -> Quad {
+        // SAFETY: SSE is part of the x86-64 baseline (every x86-64 processor has it).
+        Quad(unsafe { std::arch::x86_64::_mm_set1_ps(v) })
+    }
+
+    /// The four values of `cells`.
+    #[inline(always)]
+    pub fn load(cells: &[f32; 4]) -> Quad {
+        // SAFETY: `cells` is four readable `f32`; `loadu` takes any alignment.
+        Quad(unsafe { std::arch::x86_64::_mm_loadu_ps(cells.as_ptr()) })
+    }
+
+    /// Write the lanes to `cells`.
+    #[inline(always)]
+    pub fn store(self, cells: &mut [f32; 4]) {
+        // SAFETY: `cells` is four writable `f32`; `storeu` takes any alignment.
+        unsafe { std::arch::x86_64::_mm_storeu_ps(cells.as_mut_ptr(), self.0) }
+    }
+
+    /// Lane-wise sum.
+    #[inline(always)]
+    pub fn add(self, other: Quad) -> Quad {
+        // SAFETY: SSE is part of the x86-64 baseline (every x86-64 processor has it).
+        Quad(unsafe { std::arch::x86_64::_mm_add_ps(self.0, other.0) })
+    }
+
+    /// Lane-wise product.
+    #[inline(always)]
+    pub fn mul(self, other: Quad) -> Quad {
+        // SAFETY: SSE is part of the x86-64 baseline (every x86-64 processor has it).
+        Quad(unsafe { std::arch::x86_64::_mm_mul_ps(self.0, other.0) })
+    }
+
+    /// The lanes as an array.
+    #[inline(always)]
+    pub fn to_array(self) -> [f32; 4] {
+        let mut out = [0f32; 4];
+        self.store(&mut out);
+        out
+    }
+}
+
+#[cfg(not(target_arch = "x86_64"))]
+impl Quad {
+    /// All lanes +0.
+    #[inline(always)]
+    pub fn zero() -> Quad {
+        Quad([0.0; 4])
+    }
+
+    /// `v` in every lane.
+    #[inline(always)]
+    pub fn splat(v: f32) -> Quad {
+        Quad([v; 4])
+    }
+
+    /// The four values of `cells`.
+    #[inline(always)]
+    pub fn load(cells: &[f32; 4]) -> Quad {
+        Quad(*cells)
+    }
+
+    /// Write the lanes to `cells`.
+    #[inline(always)]
+    pub fn store(self, cells: &mut [f32; 4]) {
+        *cells = self.0;
+    }
+
+    /// Lane-wise sum.
+    #[inline(always)]
+    pub fn add(self, other: Quad) -> Quad {
+        Quad(std::array::from_fn(|l| self.0[l] + other.0[l]))
+    }
+
+    /// Lane-wise product.
+    #[inline(always)]
+    pub fn mul(self, other: Quad) -> Quad {
+        Quad(std::array::from_fn(|l| self.0[l] * other.0[l]))
+    }
+
+    /// The lanes as an array.
+    #[inline(always)]
+    pub fn to_array(self) -> [f32; 4] {
+        self.0
+    }
+}
