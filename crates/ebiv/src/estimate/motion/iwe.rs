@@ -570,17 +570,17 @@ fn derivatives_of<const K: usize, const P: usize>(
                 let at = origin as usize + a * stride;
                 let cells: &[f32; P] = (&grid[at..at + P]).try_into().unwrap();
                 let (w, s, c) = (Quad::splat(wy[a]), Quad::splat(sy[a]), Quad::splat(cy[a]));
-                for (h, cells) in quads(cells).enumerate() {
+                for (q, cells) in quads(cells).enumerate() {
                     let x = Quad::load(cells);
-                    r0[h] = r0[h].add(w.mul(x));
-                    r1[h] = r1[h].add(s.mul(x));
-                    r2[h] = r2[h].add(c.mul(x));
+                    r0[q] = r0[q].add(w.mul(x));
+                    r1[q] = r1[q].add(s.mul(x));
+                    r2[q] = r2[q].add(c.mul(x));
                 }
             }
             let quad_dot = |r: &[Quad; MAX_QUADS], w: &[f32; P]| {
                 let mut acc = Quad::zero();
-                for (h, w) in quads(w).enumerate() {
-                    acc = acc.add(r[h].mul(Quad::load(w)));
+                for (q, w) in quads(w).enumerate() {
+                    acc = acc.add(r[q].mul(Quad::load(w)));
                 }
                 let acc = acc.to_array();
                 (acc[0] + acc[2]) + (acc[1] + acc[3])
