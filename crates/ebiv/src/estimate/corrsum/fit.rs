@@ -71,10 +71,12 @@ fn solve6(mut m: [[f64; 7]; 6]) -> Option<[f64; 6]> {
             return None;
         }
         m.swap(col, pivot);
-        for row in col + 1..6 {
-            let f = m[row][col] / m[col][col];
-            let pivot_row = m[col];
-            for (x, p) in m[row].iter_mut().zip(pivot_row).skip(col) {
+        let pivot_row = m[col];
+        for row in &mut m[col + 1..] {
+            let f = row[col] / pivot_row[col];
+            // The eliminated entry itself (≈ 0) is never read again: only the columns after
+            // it are updated, as contiguous slices the compiler vectorises.
+            for (x, p) in row[col + 1..].iter_mut().zip(&pivot_row[col + 1..]) {
                 *x -= f * p;
             }
         }
