@@ -29,8 +29,8 @@ pub struct ProcessBenchArgs {
     /// Only this method: corrsum or motion (default both).
     #[arg(long)]
     pub method: Option<String>,
-    /// How many times each method processes the recording; the best run is reported (the
-    /// recording is simulated once).
+    /// How many times each method processes the recording (at least once); the best run is
+    /// reported (the recording is simulated once).
     #[arg(long, default_value_t = 3)]
     pub repeat: u32,
 }

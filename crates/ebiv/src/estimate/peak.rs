@@ -408,6 +408,7 @@ fn highest_row(values: &[f64]) -> (usize, f64) {
         .remainder()
         .iter()
         .fold(higher(lanes[0], lanes[1]), |m, &v| higher(m, v));
+    // (Always found: `highest` is one of the values, none NaN.)
     let first = first_equal(values, highest).unwrap_or(0);
     (first, values[first])
 }

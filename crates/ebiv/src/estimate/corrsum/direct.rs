@@ -359,8 +359,9 @@ fn add_pair_products(
         while hi < by.len() && (by[hi] as isize) <= y + ry {
             hi += 1;
         }
-        // Two pairs per turn (their cells differ: the voxels of a slice are distinct), so
-        // that the loop's own instructions are paid once per two products.
+        // Two pairs per turn, in the old order, so that the loop's own instructions are paid
+        // once per two products (the two cells differ: the voxels of a slice are distinct,
+        // so the second addition does not wait for the first).
         let mut two_at_a_time = linear[lo..hi].chunks_exact(2);
         let mut j = lo;
         for two in &mut two_at_a_time {

@@ -74,8 +74,9 @@ fn solve6(mut m: [[f64; 7]; 6]) -> Option<[f64; 6]> {
         let pivot_row = m[col];
         for row in &mut m[col + 1..] {
             let f = row[col] / pivot_row[col];
-            // The eliminated entry itself (≈ 0) is never read again: only the columns after
-            // it are updated, as contiguous slices the compiler vectorises.
+            // The entry below the pivot is left as it is (it would become ≈ 0) and is never
+            // read again: only the columns after it are updated, as contiguous slices the
+            // compiler vectorises.
             for (x, p) in row[col + 1..].iter_mut().zip(&pivot_row[col + 1..]) {
                 *x -= f * p;
             }

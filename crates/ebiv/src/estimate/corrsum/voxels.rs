@@ -633,7 +633,7 @@ pub(super) fn slice_statistics(
 }
 
 /// Mean and population variance over the `pixels` pixels of the window of slice `z` of `v`
-/// (its voxels, zero elsewhere). Inlined: called twice per slice, the call cost as much as
+/// (its voxels, zero elsewhere). Inlined: called twice per slice, the call costs as much as
 /// the moments of binary voxels.
 #[inline(always)]
 fn moments(v: SubVolume<'_>, z: usize, pixels: f64) -> (f64, f64) {

@@ -74,6 +74,44 @@ fn cell_index(a: f32, limit: f32) -> u32 {
     (a + MAGIC).to_bits().wrapping_sub(MAGIC.to_bits())
 }
 
+/// `out[i] = c[i − 1] + 2 c[i] + c[i + 1]`, zero outside `c` (`out` as long as `c`): the
+/// row pass of the vote's [1 2 1] smoothing, the interior as one loop over three shifted
+/// slices, which the compiler vectorises.
+fn smooth_row(c: &[u32], out: &mut [u32]) {
+    let n = c.len();
+    debug_assert_eq!(out.len(), n);
+    match n {
+        0 => {}
+        1 => out[0] = 2 * c[0],
+        _ => {
+            out[0] = 2 * c[0] + c[1];
+            let interior = out[1..n - 1]
+                .iter_mut()
+                .zip(c.iter().zip(&c[1..]).zip(&c[2..]));
+            for (o, ((&left, &centre), &right)) in interior {
+                *o = left + 2 * centre + right;
+            }
+            out[n - 1] = c[n - 2] + 2 * c[n - 1];
+        }
+    }
+}
+
+/// Index of the first value of `values` above `floor`, as
+/// `values.iter().position(|&v| v > floor)`, testing eight values at a time with one branch:
+/// the search of the vote map's maxima passes over most of the map whole.
+fn first_above(values: &[u32], floor: u32) -> Option<usize> {
+    let mut chunks = values.chunks_exact(8);
+    let mut offset = 0;
+    for chunk in &mut chunks {
+        if chunk.iter().fold(false, |any, &v| any | (v > floor)) {
+            return chunk.iter().position(|&v| v > floor).map(|k| offset + k);
+        }
+        offset += 8;
+    }
+    let rest = chunks.remainder();
+    rest.iter().position(|&v| v > floor).map(|k| offset + k)
+}
+
 /// Where the pair velocities fall in the vote map: cells of `1/inv` px/ms, the velocity
 /// `(u, v)` in cell `(⌊u·inv + offset₀⌋, ⌊v·inv + offset₁⌋)` of a map `side` cells wide,
 /// velocities outside the map in the cell `trash`.
@@ -241,8 +279,11 @@ pub(crate) fn vote(
     let n = (half / cell).ceil() as i64;
     let side = (2 * n + 1) as usize;
     let trash = (side * side) as u32;
-    s.counts.clear();
-    s.counts.resize(side * side + 1, 0);
+    // A power of two long, so that the count loop masks its index instead of testing it;
+    // every cell, `trash` included, lies below `side² + 1`, and only those are cleared.
+    let used = side * side + 1;
+    s.counts.resize(used.next_power_of_two(), 0);
+    s.counts[..used].fill(0);
     let inv = (1.0 / cell) as f32;
     let offset = [
         n as f32 + 0.5 - centre[0] as f32 * inv,
@@ -266,9 +307,17 @@ pub(crate) fn vote(
         let cells = &mut s.cells[later..];
         let others = (&sx[later..], &sy[later..], &st[later..]);
         map.pair_cells(cells, others, (ex, ey, et));
-        let counts = &mut s.counts[..];
-        for &c in cells.iter() {
-            counts[c as usize] += 1;
+        let mask = s.counts.len() - 1;
+        let counts = &mut s.counts[..=mask];
+        // Four cells per turn of the loop (one pair's count is one instruction).
+        let mut fours = cells.chunks_exact(4);
+        for four in &mut fours {
+            for &c in four {
+                counts[c as usize & mask] += 1;
+            }
+        }
+        for &c in fours.remainder() {
+            counts[c as usize & mask] += 1;
         }
     }
     // Separable [1 2 1] smoothing (zero outside) into a map with a border of zeros, so that
@@ -278,15 +327,8 @@ pub(crate) fn vote(
     s.rows.resize(width * side, 0);
     for j in 0..side {
         let c = &s.counts[j * side..(j + 1) * side];
-        let r = &mut s.rows[j * width..(j + 1) * width];
-        r[1..side + 1].copy_from_slice(c);
-        let mut left = 0;
-        for i in 0..side {
-            let centre = r[i + 1];
-            let right = if i + 1 < side { c[i + 1] } else { 0 };
-            r[i + 1] = left + 2 * centre + right;
-            left = centre;
-        }
+        let r = &mut s.rows[j * width + 1..j * width + 1 + side];
+        smooth_row(c, r);
     }
     s.smooth.clear();
     s.smooth.resize(width * width, 0);
@@ -314,17 +356,22 @@ pub(crate) fn vote(
     maxima.clear();
     let w = width;
     for j in 0..side {
-        for i in 0..side {
-            let p = at(i, j);
-            let v = map[p];
+        let row = &map[at(0, j)..at(0, j) + side];
+        let mut i = 0;
+        loop {
             let floor = if maxima.len() == MAX_STARTS {
                 maxima[MAX_STARTS - 1].0 + min
             } else {
                 min
             };
-            if v <= floor {
-                continue;
-            }
+            // The next cell above the floor (the cells passed over would be skipped).
+            let Some(k) = first_above(&row[i..], floor) else {
+                break;
+            };
+            let col = i + k;
+            i = col + 1;
+            let p = at(col, j);
+            let v = map[p];
             // Strictly higher neighbours, or equal ones earlier in scan order.
             let earlier = [p - w - 1, p - w, p - w + 1, p - 1];
             let later = [p + 1, p + w - 1, p + w, p + w + 1];
@@ -332,7 +379,7 @@ pub(crate) fn vote(
                 continue;
             }
             let rank = maxima.partition_point(|m| m.0 >= v - min);
-            maxima.insert(rank, (v - min, j * side + i));
+            maxima.insert(rank, (v - min, j * side + col));
             maxima.truncate(MAX_STARTS);
         }
     }
@@ -376,6 +423,39 @@ pub(crate) fn vote(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The row pass equals the [1 2 1] stencil with zeros outside, and the chunked search
+    /// the plain one, for every length up to past two chunks.
+    #[test]
+    fn smoothing_and_search_equal_their_definitions() {
+        let mut state = 5u64;
+        let mut next = move || {
+            state ^= state << 13;
+            state ^= state >> 7;
+            state ^= state << 17;
+            (state % 7) as u32
+        };
+        for n in 0..40 {
+            let c: Vec<u32> = (0..n).map(|_| next()).collect();
+            let mut out = vec![u32::MAX; n];
+            smooth_row(&c, &mut out);
+            let at = |i: isize| {
+                if (0..n as isize).contains(&i) {
+                    c[i as usize]
+                } else {
+                    0
+                }
+            };
+            let expected: Vec<u32> = (0..n as isize)
+                .map(|i| at(i - 1) + 2 * at(i) + at(i + 1))
+                .collect();
+            assert_eq!(out, expected, "n = {n}");
+            for floor in 0..8 {
+                let plain = c.iter().position(|&v| v > floor);
+                assert_eq!(first_above(&c, floor), plain, "n = {n}, floor {floor}");
+            }
+        }
+    }
 
     /// The cells of the eight-lane AVX2 build (where the processor has it) are the scalar
     /// loop's, bit for bit: random pairs, pairs at the
