@@ -27,7 +27,9 @@ const START_FRACTION: f64 = 0.5;
 /// Working memory of the vote.
 #[derive(Debug, Clone, Default)]
 pub(crate) struct VoteScratch {
-    order: Vec<u32>,
+    /// Per event, its time's order key in the high half and its index in the low half
+    /// ([`time_keys`]).
+    keys: Vec<u64>,
     sorted: [Vec<f32>; 3],
     cells: Vec<u32>,
     counts: Vec<u32>,
@@ -72,6 +74,24 @@ fn cell_index(a: f32, limit: f32) -> u32 {
     let a = if a > -1.0 { a } else { -1.0 };
     let a = if a < limit { a } else { limit };
     (a + MAGIC).to_bits().wrapping_sub(MAGIC.to_bits())
+}
+
+/// Into `keys`, per time of `t`, a key whose order is the time's [`f32::total_cmp`] order,
+/// with the index of the time as the tie-break: `(ordered bits << 32) | index`. Sorting the
+/// keys as integers orders the events by time, equal times by index, without the indirect
+/// loads of a comparison of times through indices (a third of the vote's instructions).
+fn time_keys(t: &[f32], keys: &mut Vec<u64>) {
+    keys.clear();
+    keys.extend(t.iter().enumerate().map(|(i, &t)| {
+        let bits = t.to_bits();
+        // Negative times (sign bit set) in reverse, below the positive ones, as total_cmp.
+        let ordered = if bits >> 31 == 1 {
+            !bits
+        } else {
+            bits | 1 << 31
+        };
+        (u64::from(ordered) << 32) | i as u64
+    }));
 }
 
 /// `out[i] = c[i − 1] + 2 c[i] + c[i + 1]`, zero outside `c` (`out` as long as `c`): the
@@ -261,16 +281,14 @@ pub(crate) fn vote(
     }
     // The events in time order, thinned evenly to at most MAX_EVENTS.
     let total = events.t.len();
-    s.order.clear();
-    s.order.extend(0..total as u32);
-    s.order
-        .sort_unstable_by(|&a, &b| events.t[a as usize].total_cmp(&events.t[b as usize]));
+    time_keys(&events.t, &mut s.keys);
+    s.keys.sort_unstable();
     let kept = total.min(MAX_EVENTS);
     for v in s.sorted.iter_mut() {
         v.clear();
     }
     for k in 0..kept {
-        let i = s.order[k * total / kept] as usize;
+        let i = (s.keys[k * total / kept] & u64::from(u32::MAX)) as usize;
         s.sorted[0].push(events.x[i]);
         s.sorted[1].push(events.y[i]);
         s.sorted[2].push(events.t[i]);
@@ -423,6 +441,38 @@ pub(crate) fn vote(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Sorted keys give the events in `total_cmp` order of their times, equal times by
+    /// index: negative and positive times, both zeros, infinities and NaN.
+    #[test]
+    fn time_keys_sort_as_total_cmp_then_index() {
+        let mut state = 3u64;
+        let mut next = move || {
+            state ^= state << 13;
+            state ^= state >> 7;
+            state ^= state << 17;
+            state
+        };
+        for n in [0, 1, 2, 7, 100, 1000] {
+            let t: Vec<f32> = (0..n)
+                .map(|_| match next() % 9 {
+                    0 => -0.0,
+                    1 => 0.0,
+                    2 => f32::INFINITY,
+                    3 => f32::NEG_INFINITY,
+                    4 => f32::NAN,
+                    k => (next() % 41) as f32 * 0.25 - 5.0 + k as f32 * 1e-3,
+                })
+                .collect();
+            let mut keys = Vec::new();
+            time_keys(&t, &mut keys);
+            keys.sort_unstable();
+            let fast: Vec<usize> = keys.iter().map(|&k| (k & 0xFFFF_FFFF) as usize).collect();
+            let mut slow: Vec<usize> = (0..n).collect();
+            slow.sort_by(|&a, &b| t[a].total_cmp(&t[b]).then(a.cmp(&b)));
+            assert_eq!(fast, slow, "n = {n}");
+        }
+    }
 
     /// The row pass equals the [1 2 1] stencil with zeros outside, and the chunked search
     /// the plain one, for every length up to past two chunks.
