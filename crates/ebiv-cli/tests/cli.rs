@@ -277,7 +277,7 @@ fn wall_flow_default_passes_flag_under_2_percent() {
 /// `--subpixel-shift` (sum of correlation, default passes) on the real wall flow, alone and
 /// with `--weighting count`: accepted as flags and config keys, and the field stays as close
 /// to the independent motion-compensation field as the default one and flags no more vectors
-/// (measured: 5 vs 9 of 576 flagged, median |Δv| from motion compensation 0.052 vs 0.056
+/// (measured: 5 vs 9 of 576 flagged, median |Δv| from motion compensation 0.052 vs 0.057
 /// px/ms; with count weighting too: 5 flagged, 0.052 px/ms).
 #[test]
 fn wall_flow_with_subpixel_shift() {

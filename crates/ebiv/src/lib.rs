@@ -27,6 +27,8 @@ pub mod render;
 pub mod sim;
 mod simd;
 pub mod stats;
+#[cfg(test)]
+mod test_rng;
 pub mod units;
 pub mod validate;
 pub mod volume;

@@ -421,6 +421,7 @@ fn convolve_1d(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::test_rng::xorshift;
 
     /// A field of `h` rows and `w` columns with velocities `f(row, col)`, all valid.
     fn field_from(
@@ -538,13 +539,8 @@ mod tests {
 
     #[test]
     fn epsilon_keeps_a_noisy_uniform_field_valid() {
-        let mut state = 0x2545_f491_4f6c_dd1du64;
-        let mut noise = || {
-            state ^= state << 13;
-            state ^= state >> 7;
-            state ^= state << 17;
-            (state >> 40) as f32 / (1u64 << 24) as f32 * 2e-3 - 1e-3
-        };
+        let mut rng = xorshift(0x2545_f491_4f6c_dd1d);
+        let mut noise = || (rng() >> 40) as f32 / (1u64 << 24) as f32 * 2e-3 - 1e-3;
         let f = field_from(12, 12, |_, _| (1.5 + noise(), -0.5 + noise()));
         let mut g = f.clone();
         let s = validate(&mut g, &ValidationParams::default());

@@ -506,6 +506,7 @@ fn second_peak_reference(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::test_rng::xorshift;
 
     fn gaussian_map(w: usize, h: usize, cx: f64, cy: f64, sx: f64, sy: f64) -> Vec<f64> {
         (0..w * h)
@@ -646,13 +647,7 @@ mod tests {
     /// the highest values), with ties, infinities and both zeros, at every length.
     #[test]
     fn highest_row_equals_the_plain_scan() {
-        let mut state = 11u64;
-        let mut next = move || {
-            state ^= state << 13;
-            state ^= state >> 7;
-            state ^= state << 17;
-            state
-        };
+        let mut next = xorshift(11);
         for case in 0..2000usize {
             let values: Vec<f64> = (0..1 + case % 70)
                 .map(|_| match next() % 12 {
@@ -677,13 +672,7 @@ mod tests {
 
     #[test]
     fn second_peak_equals_the_plain_scan() {
-        let mut state = 7u64;
-        let mut next = move || {
-            state ^= state << 13;
-            state ^= state >> 7;
-            state ^= state << 17;
-            state
-        };
+        let mut next = xorshift(7);
         for case in 0..400usize {
             // Some planes taller than ORDERED_ROWS, whose rows are visited in order.
             let (w, h) = if case % 50 == 49 {

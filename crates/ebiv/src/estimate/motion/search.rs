@@ -391,17 +391,13 @@ impl Search<'_> {
 mod timing {
     use super::*;
     use crate::estimate::motion::MotionParams;
+    use crate::test_rng::xorshift;
 
     /// Events of `count` particles (trails of ring-shaped images, integer pixels) moving
     /// with `vel` px/ms over ±5 ms, inside a 40 × 40 px window.
     fn trails(vel: [f64; 2], seed: u64) -> Events {
-        let mut state = seed.wrapping_mul(0x9E37_79B9_7F4A_7C15) | 1;
-        let mut next = || {
-            state ^= state << 13;
-            state ^= state >> 7;
-            state ^= state << 17;
-            (state >> 11) as f64 / (1u64 << 53) as f64
-        };
+        let mut rng = xorshift(seed.wrapping_mul(0x9E37_79B9_7F4A_7C15) | 1);
+        let mut next = || (rng() >> 11) as f64 / (1u64 << 53) as f64;
         let mut ev = Events::default();
         while ev.t.len() < 300 {
             let (px, py) = (next() * 60.0 - 10.0, next() * 60.0 - 10.0);

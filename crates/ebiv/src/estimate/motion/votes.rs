@@ -76,11 +76,18 @@ fn cell_index(a: f32, limit: f32) -> u32 {
     (a + MAGIC).to_bits().wrapping_sub(MAGIC.to_bits())
 }
 
-/// Into `keys`, per time of `t`, a key whose order is the time's [`f32::total_cmp`] order,
-/// with the index of the time as the tie-break: `(ordered bits << 32) | index`. Sorting the
-/// keys as integers orders the events by time, equal times by index, without the indirect
-/// loads of a comparison of times through indices (a third of the vote's instructions).
+/// Into `keys`, per time of `t`, a key whose order is the time's [`f32::total_cmp`] order:
+/// `(ordered bits << 32) | scrambled index` ([`index_of`] recovers the index). Sorting the
+/// keys as integers orders the events by time without the indirect loads of a comparison of
+/// times through indices (159 M of the vote's 666 M instructions on two paper-rate fields).
+///
+/// Equal times, frequent with µs time stamps, are ordered by the index multiplied by an odd
+/// constant (a bijection of `u32`), not by the index itself: events are gathered tile by
+/// tile, and the index order would keep each group of equal times tile by tile, so that the
+/// evenly thinned voting events lean to some tiles (on the real wall flow 5 of 576 valid
+/// vectors became out-of-range ones, as with the stable sort reverted in c76972e).
 fn time_keys(t: &[f32], keys: &mut Vec<u64>) {
+    debug_assert!(t.len() <= 1 << 32, "indices must fit the key's low half");
     keys.clear();
     keys.extend(t.iter().enumerate().map(|(i, &t)| {
         let bits = t.to_bits();
@@ -90,8 +97,20 @@ fn time_keys(t: &[f32], keys: &mut Vec<u64>) {
         } else {
             bits | 1 << 31
         };
-        (u64::from(ordered) << 32) | i as u64
+        let scrambled = (i as u32).wrapping_mul(TIE_SCRAMBLE);
+        (u64::from(ordered) << 32) | u64::from(scrambled)
     }));
+}
+
+/// The odd multiplier that orders equal times in [`time_keys`] (2³²/φ, Knuth's
+/// multiplicative hashing), and its inverse modulo 2³².
+const TIE_SCRAMBLE: u32 = 0x9E37_79B9;
+const TIE_UNSCRAMBLE: u32 = 0x144C_BC89;
+
+/// The index of the event of a key made by [`time_keys`].
+#[inline]
+fn index_of(key: u64) -> usize {
+    (key as u32).wrapping_mul(TIE_UNSCRAMBLE) as usize
 }
 
 /// `out[i] = c[i − 1] + 2 c[i] + c[i + 1]`, zero outside `c` (`out` as long as `c`): the
@@ -288,7 +307,7 @@ pub(crate) fn vote(
         v.clear();
     }
     for k in 0..kept {
-        let i = (s.keys[k * total / kept] & u64::from(u32::MAX)) as usize;
+        let i = index_of(s.keys[k * total / kept]);
         s.sorted[0].push(events.x[i]);
         s.sorted[1].push(events.y[i]);
         s.sorted[2].push(events.t[i]);
@@ -441,36 +460,45 @@ pub(crate) fn vote(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::test_rng::xorshift;
 
-    /// Sorted keys give the events in `total_cmp` order of their times, equal times by
-    /// index: negative and positive times, both zeros, infinities and NaN.
+    /// Sorted keys give the events in `total_cmp` order of their times, every index once,
+    /// equal times by scrambled index: negative and positive times, both zeros, subnormals,
+    /// the extremes, infinities and NaNs of both signs.
     #[test]
-    fn time_keys_sort_as_total_cmp_then_index() {
-        let mut state = 3u64;
-        let mut next = move || {
-            state ^= state << 13;
-            state ^= state >> 7;
-            state ^= state << 17;
-            state
-        };
+    fn time_keys_sort_as_total_cmp_then_scrambled_index() {
+        let mut next = xorshift(3);
         for n in [0, 1, 2, 7, 100, 1000] {
             let t: Vec<f32> = (0..n)
-                .map(|_| match next() % 9 {
+                .map(|_| match next() % 14 {
                     0 => -0.0,
                     1 => 0.0,
                     2 => f32::INFINITY,
                     3 => f32::NEG_INFINITY,
                     4 => f32::NAN,
+                    5 => -f32::NAN,
+                    6 => f32::from_bits(0x7F80_0001),
+                    7 => f32::from_bits(1),
+                    8 => -f32::from_bits(1),
+                    9 => f32::MAX,
+                    10 => f32::MIN,
                     k => (next() % 41) as f32 * 0.25 - 5.0 + k as f32 * 1e-3,
                 })
                 .collect();
             let mut keys = Vec::new();
             time_keys(&t, &mut keys);
             keys.sort_unstable();
-            let fast: Vec<usize> = keys.iter().map(|&k| (k & 0xFFFF_FFFF) as usize).collect();
+            let fast: Vec<usize> = keys.iter().map(|&k| index_of(k)).collect();
             let mut slow: Vec<usize> = (0..n).collect();
-            slow.sort_by(|&a, &b| t[a].total_cmp(&t[b]).then(a.cmp(&b)));
+            let tie = |i: usize| (i as u32).wrapping_mul(TIE_SCRAMBLE);
+            slow.sort_by(|&a, &b| t[a].total_cmp(&t[b]).then(tie(a).cmp(&tie(b))));
             assert_eq!(fast, slow, "n = {n}");
+            // Equal times are not in index order: the scramble mixes them.
+            if n == 1000 {
+                let mut plain: Vec<usize> = (0..n).collect();
+                plain.sort_by(|&a, &b| t[a].total_cmp(&t[b]).then(a.cmp(&b)));
+                assert_ne!(fast, plain);
+            }
         }
     }
 
@@ -478,13 +506,8 @@ mod tests {
     /// the plain one, for every length up to past two chunks.
     #[test]
     fn smoothing_and_search_equal_their_definitions() {
-        let mut state = 5u64;
-        let mut next = move || {
-            state ^= state << 13;
-            state ^= state >> 7;
-            state ^= state << 17;
-            (state % 7) as u32
-        };
+        let mut rng = xorshift(5);
+        let mut next = move || (rng() % 7) as u32;
         for n in 0..40 {
             let c: Vec<u32> = (0..n).map(|_| next()).collect();
             let mut out = vec![u32::MAX; n];
@@ -513,13 +536,8 @@ mod tests {
     /// several sizes and offsets.
     #[test]
     fn vectorised_pair_cells_equal_the_scalar_ones() {
-        let mut state = 0x1234_5678_9abc_def0u64;
-        let mut uniform = move || {
-            state ^= state << 13;
-            state ^= state >> 7;
-            state ^= state << 17;
-            (state >> 40) as f32 / (1u64 << 24) as f32
-        };
+        let mut rng = xorshift(0x1234_5678_9abc_def0);
+        let mut uniform = move || (rng() >> 40) as f32 / (1u64 << 24) as f32;
         for (side, inv, offset) in [
             (33u32, 4.0f32, [16.5f32, 16.5]),
             (9, 1.0, [4.5, 3.0]),

@@ -7,6 +7,7 @@ mod timing;
 
 use super::*;
 use crate::event::Geometry;
+use crate::test_rng::xorshift;
 
 /// The irradiance whose log response under `p` is `l` (inverse of the lin-log map).
 fn irradiance_for_log(p: &SensorParams, l: f64) -> f32 {
@@ -80,15 +81,13 @@ fn the_avx2_and_portable_pixel_updates_give_the_same_events() {
     dispatched.adapt(0.0, |x, y| 50.0 + (x * 7 + y * 13) as f32);
     let mut portable = dispatched.clone();
     let (mut a, mut b) = (Vec::new(), Vec::new());
-    let mut state = 0x2545_f491_4f6c_dd1du64;
+    let mut rng = xorshift(0x2545_f491_4f6c_dd1d);
     for step in 1..=300 {
         let t = step as f64 * 10.0;
         // A deterministic pseudo-random third of the pixels changes at every step.
         let changed: Vec<(u32, f32)> = (0..geometry.width * geometry.height)
             .filter_map(|i| {
-                state ^= state << 13;
-                state ^= state >> 7;
-                state ^= state << 17;
+                let state = rng();
                 (state % 3 == 0).then(|| (i, 5.0 + (state >> 40) as f32 / 1e4))
             })
             .collect();
