@@ -27,8 +27,8 @@ const START_FRACTION: f64 = 0.5;
 /// Working memory of the vote.
 #[derive(Debug, Clone, Default)]
 pub(crate) struct VoteScratch {
-    /// Per event, its time's order key in the high half and its index in the low half
-    /// ([`time_keys`]).
+    /// Per event, its time's order key in the high half and its scrambled index in the low
+    /// half ([`time_keys`], [`index_of`]).
     keys: Vec<u64>,
     sorted: [Vec<f32>; 3],
     cells: Vec<u32>,
@@ -87,7 +87,10 @@ fn cell_index(a: f32, limit: f32) -> u32 {
 /// evenly thinned voting events lean to some tiles (on the real wall flow 5 of 576 valid
 /// vectors became out-of-range ones, as with the stable sort reverted in c76972e).
 fn time_keys(t: &[f32], keys: &mut Vec<u64>) {
-    debug_assert!(t.len() <= 1 << 32, "indices must fit the key's low half");
+    debug_assert!(
+        t.len() as u64 <= 1 << 32,
+        "indices must fit the key's low half"
+    );
     keys.clear();
     keys.extend(t.iter().enumerate().map(|(i, &t)| {
         let bits = t.to_bits();
