@@ -304,25 +304,30 @@ fn is_local_max(map: &[f64], [width, height]: [usize; 2], [row, col]: [usize; 2]
             .all(|r| (col.saturating_sub(1)..(col + 2).min(width)).all(|c| map[r * width + c] <= v))
 }
 
-/// Index of the first value of `line` above `threshold` (NaN never is), as
-/// `line.iter().position(|&v| v > threshold)`, but testing four values at a time with one
-/// branch: most of a plane lies below the second peak found so far, so most chunks are
-/// passed over whole.
-fn first_above(line: &[f64], threshold: f64) -> Option<usize> {
-    let mut chunks = line.chunks_exact(4);
+/// Index of the first value of `values` for which `holds` is true, as
+/// `values.iter().position(|&v| holds(v))`, but testing `LANES` values at a time with one
+/// branch (the test of a chunk compiles to vector comparisons): scans that pass over most
+/// values whole (the second-peak search, the vote map's maxima) pay one branch per chunk.
+pub(crate) fn first_where<T: Copy, const LANES: usize>(
+    values: &[T],
+    holds: impl Fn(T) -> bool,
+) -> Option<usize> {
+    let mut chunks = values.chunks_exact(LANES);
     let mut offset = 0;
     for chunk in &mut chunks {
-        let above = chunk.iter().fold(false, |any, &v| any | (v > threshold));
-        if above {
-            return chunk
-                .iter()
-                .position(|&v| v > threshold)
-                .map(|k| offset + k);
+        if chunk.iter().fold(false, |any, &v| any | holds(v)) {
+            return chunk.iter().position(|&v| holds(v)).map(|k| offset + k);
         }
-        offset += 4;
+        offset += LANES;
     }
     let rest = chunks.remainder();
-    rest.iter().position(|&v| v > threshold).map(|k| offset + k)
+    rest.iter().position(|&v| holds(v)).map(|k| offset + k)
+}
+
+/// Index of the first value of `line` above `threshold` (NaN never is), four at a time
+/// ([`first_where`]): most of a plane lies below the second peak found so far.
+fn first_above(line: &[f64], threshold: f64) -> Option<usize> {
+    first_where::<_, 4>(line, |v| v > threshold)
 }
 
 /// Highest finite local maximum (≥ its 8 neighbours, none NaN) farther than `exclusion`
@@ -392,7 +397,7 @@ const ORDERED_ROWS: usize = 64;
 /// The first index of the highest value of `values` (not empty, no NaN) and the value.
 ///
 /// The highest value first, in two lanes without a branch per value (`maxpd`), then the
-/// first value equal to it, four at a time ([`first_equal`]): the index a scan keeping the
+/// first value equal to it, four at a time ([`first_where`]): the index a scan keeping the
 /// first strictly higher value finds (+0 and −0 compare equal in both), in a fraction of
 /// its instructions, as the second-peak search asks again after every row it visits.
 fn highest_row(values: &[f64]) -> (usize, f64) {
@@ -409,24 +414,8 @@ fn highest_row(values: &[f64]) -> (usize, f64) {
         .iter()
         .fold(higher(lanes[0], lanes[1]), |m, &v| higher(m, v));
     // (Always found: `highest` is one of the values, none NaN.)
-    let first = first_equal(values, highest).unwrap_or(0);
+    let first = first_where::<_, 4>(values, |v| v == highest).unwrap_or(0);
     (first, values[first])
-}
-
-/// Index of the first value of `values` equal to `target`, as
-/// `values.iter().position(|&v| v == target)`, testing four values at a time with one
-/// branch (as [`first_above`]).
-fn first_equal(values: &[f64], target: f64) -> Option<usize> {
-    let mut chunks = values.chunks_exact(4);
-    let mut offset = 0;
-    for chunk in &mut chunks {
-        if chunk.iter().fold(false, |any, &v| any | (v == target)) {
-            return chunk.iter().position(|&v| v == target).map(|k| offset + k);
-        }
-        offset += 4;
-    }
-    let rest = chunks.remainder();
-    rest.iter().position(|&v| v == target).map(|k| offset + k)
 }
 
 /// The state of [`second_peak`]'s scan: the highest local maximum outside the exclusion

@@ -11,6 +11,7 @@
 //! instead of one IWE per candidate.
 
 use super::iwe::Events;
+use crate::estimate::peak::first_where;
 use crate::simd::avx2_available;
 
 /// Events voting at most (≈ 5 800 pairs); beyond, the events are thinned evenly in time.
@@ -138,20 +139,10 @@ fn smooth_row(c: &[u32], out: &mut [u32]) {
     }
 }
 
-/// Index of the first value of `values` above `floor`, as
-/// `values.iter().position(|&v| v > floor)`, testing eight values at a time with one branch:
-/// the search of the vote map's maxima passes over most of the map whole.
+/// Index of the first value of `values` above `floor`, eight at a time
+/// ([`first_where`]): the search of the vote map's maxima passes over most of the map whole.
 fn first_above(values: &[u32], floor: u32) -> Option<usize> {
-    let mut chunks = values.chunks_exact(8);
-    let mut offset = 0;
-    for chunk in &mut chunks {
-        if chunk.iter().fold(false, |any, &v| any | (v > floor)) {
-            return chunk.iter().position(|&v| v > floor).map(|k| offset + k);
-        }
-        offset += 8;
-    }
-    let rest = chunks.remainder();
-    rest.iter().position(|&v| v > floor).map(|k| offset + k)
+    first_where::<_, 8>(values, |v| v > floor)
 }
 
 /// Where the pair velocities fall in the vote map: cells of `1/inv` px/ms, the velocity
