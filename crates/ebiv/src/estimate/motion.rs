@@ -30,6 +30,8 @@
 mod iwe;
 mod newton;
 mod search;
+#[cfg(test)]
+mod test_events;
 mod votes;
 
 use serde::{Deserialize, Serialize};
