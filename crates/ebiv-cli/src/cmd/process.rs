@@ -137,7 +137,7 @@ pub struct ProcessArgs {
     #[arg(long, value_name = "binary|count")]
     pub weighting: Option<String>,
     /// motion: how the contrast maximum is found: newton (analytic gradient and Hessian from
-    /// an event-pair vote, about four evaluations; the default) or grid (the paper's coarse
+    /// an event-pair vote, about three evaluations; the default) or grid (the paper's coarse
     /// grid and 5×5 refinement, 100–200 evaluations).
     #[arg(long, value_name = "METHOD")]
     pub motion_search: Option<String>,

@@ -186,7 +186,7 @@ output = "flow.nc"              # .nc, .csv, .npz, .dat (Tecplot) or .vtk
 #                               # time of those passes)
 # weighting = "binary"          # corrsum: voxel value, binary (paper) or count (events per
 #                               # voxel; with subpixel-shift the lowest random error)
-# motion-search = "newton"      # motion: newton (default, ~4 evaluations per window) or grid
+# motion-search = "newton"      # motion: newton (default, ~3 evaluations per window) or grid
 #                               # (the paper's coarse grid + 5x5 refinement)
 # search-range = 4.0            # motion: half-width of the velocity search, px/ms
 #                               # (default: window / slab, a quarter of it around a predictor)

@@ -98,8 +98,9 @@ impl Default for Splat {
 #[serde(rename_all = "kebab-case")]
 pub enum SearchMethod {
     /// Start at the peak of a histogram of event-pair velocities, then Newton steps with the
-    /// objective's analytic gradient and Hessian until the step is below 0.005 px/ms: about
-    /// four objective evaluations per window. Needs a smooth objective: with a bilinear
+    /// objective's analytic gradient and Hessian until the step is below 0.005 px/ms (or
+    /// below 0.02 px/ms after a step four times longer): about three objective evaluations
+    /// per window. Needs a smooth objective: with a bilinear
     /// splat or an objective other than the variance or Σ I², and for windows whose vote is
     /// ambiguous, [`SearchMethod::Grid`] is used instead.
     #[default]
