@@ -448,10 +448,22 @@ pub(crate) fn derivatives(
         // SAFETY: the processor has AVX2 (`avx2_available`).
         return unsafe { derivatives_avx2(velocity, canvas, table, work) };
     }
-    derivatives_portable::<false>(velocity, canvas, table, work)
+    derivatives_portable(velocity, canvas, table, work)
 }
 
-/// [`derivatives_portable`] compiled for AVX2 ([`crate::simd`]): its lane loops, arrays of
+/// [`derivatives_kernel`] without the AVX code: every processor.
+#[inline(always)]
+fn derivatives_portable(
+    velocity: [f64; 2],
+    canvas: &Canvas,
+    table: &SplatTable,
+    work: &mut Workspace,
+) -> Derivatives {
+    // SAFETY: without `WIDE` no AVX instruction runs.
+    unsafe { derivatives_kernel::<false>(velocity, canvas, table, work) }
+}
+
+/// [`derivatives_kernel`] compiled for AVX2 ([`crate::simd`]): its lane loops, arrays of
 /// 8 (4) `f32`, become one (half an) AVX register instead of two (one) SSE registers; the
 /// same operations in the same order, so the same bits on every processor.
 ///
@@ -465,15 +477,18 @@ unsafe fn derivatives_avx2(
     table: &SplatTable,
     work: &mut Workspace,
 ) -> Derivatives {
-    derivatives_portable::<true>(velocity, canvas, table, work)
+    derivatives_kernel::<true>(velocity, canvas, table, work)
 }
 
 /// [`derivatives`] for the table's number of taps; `WIDE` in the AVX2 build, whose
 /// per-event scatter and read-back of eight-lane rows (5 and 7 taps, σ = 0.8 by default) are
 /// written out in AVX registers ([`splat_footprint_avx2`], [`footprint_sums_avx2`]): on
 /// two paper-rate fields 998 M → 782 M instructions (callgrind), the same bits.
+///
+/// # Safety
+/// With `WIDE`, only where the processor has AVX2 ([`avx2_available`]).
 #[inline(always)]
-fn derivatives_portable<const WIDE: bool>(
+unsafe fn derivatives_kernel<const WIDE: bool>(
     velocity: [f64; 2],
     canvas: &Canvas,
     table: &SplatTable,
@@ -488,8 +503,11 @@ fn derivatives_portable<const WIDE: bool>(
 }
 
 /// [`derivatives`] for `K` taps stored `P` lanes wide.
+///
+/// # Safety
+/// With `WIDE`, only where the processor has AVX2 ([`avx2_available`]).
 #[inline(always)]
-fn derivatives_of<const K: usize, const P: usize, const WIDE: bool>(
+unsafe fn derivatives_of<const K: usize, const P: usize, const WIDE: bool>(
     [u, v]: [f64; 2],
     canvas: &Canvas,
     table: &SplatTable,
@@ -527,7 +545,11 @@ fn derivatives_of<const K: usize, const P: usize, const WIDE: bool>(
             let (bx, by) = (bx as usize, by as usize);
             let qx = ((xc - bx as f32) * levels + 0.5) as u32 as usize;
             let qy = ((yc - by as f32) * levels + 0.5) as u32 as usize;
-            let origin = (by as isize + first) as usize * stride + (bx as isize + first) as usize;
+            // Wrapping, as release builds compute it, also where overflow is checked: a
+            // footprint off the canvas then fails the kernels' bounds tests in every build.
+            let origin = ((by as isize + first) as usize)
+                .wrapping_mul(stride)
+                .wrapping_add((bx as isize + first) as usize);
             *slot = origin as u32;
             *quant = (qx | qy << 16) as u32;
             let (wx, wy) = (row(&table.weights, qx), row(&table.weights, qy));
@@ -535,7 +557,7 @@ fn derivatives_of<const K: usize, const P: usize, const WIDE: bool>(
             #[cfg(target_arch = "x86_64")]
             if WIDE && P == 8 {
                 let canvases = [&mut *grid, &mut *ju, &mut *jv];
-                // SAFETY: `WIDE` is set only in the AVX2 build (`derivatives_avx2`).
+                // SAFETY: with `WIDE` the processor has AVX2 (this function's contract).
                 unsafe {
                     splat_footprint_avx2::<K, P>(canvases, origin, stride, t, [&wx, &sx, &wy, &sy])
                 };
@@ -568,7 +590,7 @@ fn derivatives_of<const K: usize, const P: usize, const WIDE: bool>(
             let origin = origin as usize;
             #[cfg(target_arch = "x86_64")]
             let [gu, gv, huu, huv, hvv] = if WIDE && P == 8 {
-                // SAFETY: `WIDE` is set only in the AVX2 build (`derivatives_avx2`).
+                // SAFETY: with `WIDE` the processor has AVX2 (this function's contract).
                 unsafe { footprint_sums_avx2::<K, P>(grid, origin, stride, &x, &y) }
             } else {
                 footprint_sums::<K, P>(grid, origin, stride, &x, &y)
@@ -905,7 +927,7 @@ mod tests {
                     c.resize(cells.max(c.len()), 0.0);
                 }
                 portable.prepare(&events, &canvas, &table);
-                let slow = derivatives_portable::<false>(velocity, &canvas, &table, &mut portable);
+                let slow = derivatives_portable(velocity, &canvas, &table, &mut portable);
                 assert_eq!(fast, slow, "σ = {sigma}, velocity {velocity:?}");
                 assert!(fast.squares > 0.0);
             }
@@ -913,7 +935,8 @@ mod tests {
         println!("AVX2 available: {}", avx2_available());
     }
 
-    /// The analytic gradient and Hessian against central differences. They describe the
+    /// The analytic gradient against central differences of Σ I², the analytic Hessian
+    /// against central differences of the analytic gradient. They describe the
     /// smooth part of Σ I² only: the kernel, cut off at ±K/2 px and renormalised, changes
     /// its taps where a point crosses a pixel boundary, so Σ I² and its gradient jump by
     /// small amounts that central differences see and the analytic derivatives do not
@@ -960,6 +983,14 @@ mod tests {
                             (c - curvature).abs() < 0.2 * curvature.abs(),
                             "{context}: Hessian {c} vs {curvature}"
                         );
+                        // The mixed term: the other component's change along this axis.
+                        let other = 1 - axis;
+                        let mixed = (plus.gradient[other] - minus.gradient[other]) / (2.0 * h);
+                        let m = d.hessian[other][axis];
+                        assert!(
+                            (m - mixed).abs() < 0.02 * curvature.abs(),
+                            "{context}: mixed Hessian {m} vs {mixed}"
+                        );
                     }
                 }
             }
@@ -980,6 +1011,7 @@ mod tests {
         let table = SplatTable::new(Splat::Gaussian { sigma: 0.8 });
         let canvas = Canvas::covering([8, 8], [1.0, 1.0], 1.0, &table);
         for velocity in [[-1e4, 0.0], [0.0, -1e4], [1e4, 1e4]] {
+            // The panic's message, if it panicked.
             let run = |portable: bool| {
                 std::panic::catch_unwind(|| {
                     let mut work = Workspace::default();
@@ -989,15 +1021,36 @@ mod tests {
                             c.resize(cells, 0.0);
                         }
                         work.prepare(&events, &canvas, &table);
-                        derivatives_portable::<false>(velocity, &canvas, &table, &mut work)
+                        derivatives_portable(velocity, &canvas, &table, &mut work)
                     } else {
                         derivatives(&events, velocity, &canvas, &table, &mut work)
                     }
                 })
-                .is_err()
+                .err()
+                .map(|payload| {
+                    let text = payload.downcast_ref::<&str>().map(|s| s.to_string());
+                    text.or_else(|| payload.downcast_ref::<String>().cloned())
+                        .unwrap_or_default()
+                })
             };
-            assert!(run(false), "dispatched kernel, velocity {velocity:?}");
-            assert!(run(true), "portable kernel, velocity {velocity:?}");
+            let dispatched = run(false);
+            assert!(
+                dispatched.is_some(),
+                "dispatched kernel, velocity {velocity:?}"
+            );
+            if avx2_available() {
+                // Stopped by the AVX2 scatter's own bounds test (the first to meet the
+                // footprint), in debug and release builds alike.
+                let message = dispatched.unwrap();
+                assert!(
+                    message.contains("footprint inside the canvases"),
+                    "{message}"
+                );
+            }
+            assert!(
+                run(true).is_some(),
+                "portable kernel, velocity {velocity:?}"
+            );
         }
     }
 
