@@ -554,24 +554,17 @@ unsafe fn derivatives_of<const K: usize, const P: usize, const WIDE: bool>(
             *quant = (qx | qy << 16) as u32;
             let (wx, wy) = (row(&table.weights, qx), row(&table.weights, qy));
             let (sx, sy) = (row(&table.slope, qx), row(&table.slope, qy));
+            let canvases = [&mut *grid, &mut *ju, &mut *jv];
+            let kernels = [&wx, &sx, &wy, &sy];
             #[cfg(target_arch = "x86_64")]
             if WIDE && P == 8 {
-                let canvases = [&mut *grid, &mut *ju, &mut *jv];
                 // SAFETY: with `WIDE` the processor has AVX2 (this function's contract).
-                unsafe {
-                    splat_footprint_avx2::<K, P>(canvases, origin, stride, t, [&wx, &sx, &wy, &sy])
-                };
-                continue;
+                unsafe { splat_footprint_avx2::<K, P>(canvases, origin, stride, t, kernels) };
+            } else {
+                splat_footprint::<K, P>(canvases, origin, stride, t, kernels);
             }
-            for a in 0..K {
-                let at = origin + a * stride;
-                let (wa, sa) = (wy[a], -t * sy[a]);
-                let ta = -t * wy[a];
-                // One array at a time: the compiler cannot tell the three canvases apart.
-                add_row((&mut grid[at..at + P]).try_into().unwrap(), wa, &wx);
-                add_row((&mut ju[at..at + P]).try_into().unwrap(), ta, &sx);
-                add_row((&mut jv[at..at + P]).try_into().unwrap(), sa, &wx);
-            }
+            #[cfg(not(target_arch = "x86_64"))]
+            splat_footprint::<K, P>(canvases, origin, stride, t, kernels);
         }
     }
     // 2. Read I back under each footprint: gradient and the I ∂²I term of the Hessian.
@@ -644,11 +637,31 @@ struct KernelRows<const P: usize> {
     c: [f32; P],
 }
 
-/// One event's rows of I, J_u and J_v (pass 1 of [`derivatives`]) for rows of eight lanes in
-/// AVX registers: `I += w_y[a] w_x`, `J_u += (−t w_y[a]) w'_x`, `J_v += (−t w'_y[a]) w_x` on
-/// the `K` rows from `origin`, the same operations per lane in the same order as
-/// [`add_row`], so the same bits. One bounds test covers the footprint on the three
-/// canvases. `kernels` are `[w_x, w'_x, w_y, w'_y]`.
+/// One event's rows of I, J_u and J_v (pass 1 of [`derivatives`]): `I += w_y[a] w_x`,
+/// `J_u += (−t w_y[a]) w'_x`, `J_v += (−t w'_y[a]) w_x` on the `K` rows from `origin` of
+/// `canvases` `[I, J_u, J_v]`; `kernels` are `[w_x, w'_x, w_y, w'_y]`.
+#[inline(always)]
+fn splat_footprint<const K: usize, const P: usize>(
+    [grid, ju, jv]: [&mut [f32]; 3],
+    origin: usize,
+    stride: usize,
+    t: f32,
+    [wx, sx, wy, sy]: [&[f32; P]; 4],
+) {
+    for a in 0..K {
+        let at = origin + a * stride;
+        let (wa, sa) = (wy[a], -t * sy[a]);
+        let ta = -t * wy[a];
+        // One array at a time: the compiler cannot tell the three canvases apart.
+        add_row((&mut grid[at..at + P]).try_into().unwrap(), wa, wx);
+        add_row((&mut ju[at..at + P]).try_into().unwrap(), ta, sx);
+        add_row((&mut jv[at..at + P]).try_into().unwrap(), sa, wx);
+    }
+}
+
+/// [`splat_footprint`] for rows of eight lanes in AVX registers: the same operations per
+/// lane in the same order as [`add_row`], so the same bits. One bounds test covers the
+/// footprint on the three canvases.
 ///
 /// # Safety
 /// Only where the processor has AVX2 ([`crate::simd::avx2_available`]), and for `P` = 8.
