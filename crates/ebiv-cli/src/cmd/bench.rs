@@ -83,7 +83,7 @@ fn simulate(args: &SimulateBenchArgs) -> Result<(), ebiv::Error> {
     }
     let simulated_s = args.duration as f64 * 1e-6;
     println!(
-        "simulate {}: {} for {}, {events} events ({:.1} M events/s of recording); best of {}: {:.3} s = {:.2} M events/s generated on {} threads",
+        "simulate {}: {} for {}, {events} events ({:.1} M events/s of recording); best of {}: {:.3} s = {:.2} M events/s generated on {}",
         args.example,
         sim.geometry,
         ebiv::units::format_us(args.duration),
@@ -91,9 +91,17 @@ fn simulate(args: &SimulateBenchArgs) -> Result<(), ebiv::Error> {
         args.repeat.max(1),
         best,
         events as f64 / best * 1e-6,
-        rayon::current_num_threads()
+        worker_threads()
     );
     Ok(())
+}
+
+/// "1 thread" or "N threads": the size of the worker pool the bench ran on.
+pub(super) fn worker_threads() -> String {
+    match rayon::current_num_threads() {
+        1 => "1 thread".to_string(),
+        n => format!("{n} threads"),
+    }
 }
 
 fn decode(args: &DecodeBenchArgs) -> Result<(), ebiv::Error> {

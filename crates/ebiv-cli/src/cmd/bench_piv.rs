@@ -63,7 +63,7 @@ pub fn run(args: &PivBenchArgs) -> Result<(), ebiv::Error> {
         .map(|p| format!("{}px x{}", p.window[0], p.iterations))
         .collect();
     println!(
-        "piv {0}x{0} px, passes {1:?} overlap {2}: {3} vectors ({4:.1} % valid), best of {5}: {6:.3} s on {7} threads (pass evaluations: {8})",
+        "piv {0}x{0} px, passes {1:?} overlap {2}: {3} vectors ({4:.1} % valid), best of {5}: {6:.3} s on {7} (pass evaluations: {8})",
         args.size,
         args.passes,
         args.overlap,
@@ -71,7 +71,7 @@ pub fn run(args: &PivBenchArgs) -> Result<(), ebiv::Error> {
         100.0 * out.field.valid_share(),
         args.repeat.max(1),
         best,
-        rayon::current_num_threads(),
+        super::bench::worker_threads(),
         evaluations.join(", ")
     );
     Ok(())

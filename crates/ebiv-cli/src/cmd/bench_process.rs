@@ -101,7 +101,7 @@ fn time_method<E: Estimator>(
     }
     let per_recording_second = best / (times.len() as f64 / 100.0);
     println!(
-        "{:8} {}: {} fields × {} windows in {best:.2} s (best of {}) = {:.0} windows/s; {:.2} s per second of recording at 100 fields/s ({:.1} % valid) on {} threads",
+        "{:8} {}: {} fields × {} windows in {best:.2} s (best of {}) = {:.0} windows/s; {:.2} s per second of recording at 100 fields/s ({:.1} % valid) on {}",
         estimator.name(),
         describe_passes(params),
         summary.fields,
@@ -110,7 +110,7 @@ fn time_method<E: Estimator>(
         summary.vectors as f64 / best,
         per_recording_second,
         100.0 * summary.valid as f64 / summary.vectors.max(1) as f64,
-        rayon::current_num_threads()
+        super::bench::worker_threads()
     );
     Ok(())
 }
