@@ -47,7 +47,7 @@ mod tests;
 
 pub use band::SensorBand;
 pub use params::{SensorParams, TimestampMode};
-pub use readout::{read_out, ReadoutReport};
+pub use readout::{read_out, read_out_parts, ReadoutReport};
 
 /// One simulated event with its exact time, before the readout quantises it.
 #[derive(Debug, Clone, Copy, PartialEq)]

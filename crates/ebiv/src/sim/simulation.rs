@@ -10,7 +10,7 @@
 use super::flow::Flow;
 use super::particles::{Particle, ParticleCloud, SeedingParams};
 use super::scene::{IlluminationParams, ParticleRenderer, Spot};
-use super::sensor::{read_out, ReadoutReport, SensorBand, SensorParams, SimEvent};
+use super::sensor::{read_out_parts, ReadoutReport, SensorBand, SensorParams, SimEvent};
 use crate::error::{Error, Result};
 use crate::event::{EventBuffer, Geometry};
 use rayon::prelude::*;
@@ -250,11 +250,8 @@ impl Simulation {
         bands
             .par_iter_mut()
             .for_each(|band| band.sensor.noise(t0, t_end, &mut band.events));
-        let mut all: Vec<SimEvent> = Vec::with_capacity(bands.iter().map(|b| b.events.len()).sum());
-        for band in &mut bands {
-            all.append(&mut band.events);
-        }
-        let (events, mut readout) = read_out(all, &self.sensor);
+        let parts: Vec<&[SimEvent]> = bands.iter().map(|b| b.events.as_slice()).collect();
+        let (events, mut readout) = read_out_parts(&parts, &self.sensor);
         for band in &bands {
             readout.absorb(&band.sensor.counters());
         }

@@ -8,8 +8,11 @@ use super::response::clean;
 use super::{PixelCounters, SimEvent};
 use crate::event::EventBuffer;
 use crate::sim::fastmath::floor_i64;
-use rayon::iter::{IndexedParallelIterator, IntoParallelIterator, ParallelIterator};
-use rayon::slice::ParallelSliceMut;
+use rayon::iter::{
+    IndexedParallelIterator, IntoParallelIterator, IntoParallelRefIterator,
+    IntoParallelRefMutIterator, ParallelIterator,
+};
+use rayon::slice::{ParallelSlice, ParallelSliceMut};
 
 /// What the readout did, and (after [`ReadoutReport::absorb`]) what the pixels did.
 #[derive(Debug, Clone, Default, PartialEq, Eq, serde::Serialize)]
@@ -62,84 +65,149 @@ const DENSE_TABLE_LIMIT: usize = 1 << 24;
 ///   (§2.11); this is the simplest model with that bound.
 /// * **Time stamps**: `round` or `truncate` (floor) to 1 µs, after the two steps above, which
 ///   use exact times.
-pub fn read_out(mut events: Vec<SimEvent>, params: &SensorParams) -> (EventBuffer, ReadoutReport) {
+pub fn read_out(events: Vec<SimEvent>, params: &SensorParams) -> (EventBuffer, ReadoutReport) {
+    read_out_parts(&[events.as_slice()], params)
+}
+
+/// [`read_out`] of the events of several parts taken together (the bands of a simulation),
+/// without first copying them into one vector: the same events, in the same order, whatever
+/// the parts and their order.
+///
+/// The work is spread over the threads: the events are put in order by a parallel bucket
+/// sort of packed keys ([`sorted_keys`]), the refractory filter and the token bucket run in
+/// one pass over the keys (both go in time order, and the token bucket sees exactly the
+/// events the refractory filter keeps), and the output arrays are filled in parallel.
+pub fn read_out_parts(
+    parts: &[&[SimEvent]],
+    params: &SensorParams,
+) -> (EventBuffer, ReadoutReport) {
     let mut report = ReadoutReport {
-        events_in: events.len() as u64,
+        events_in: parts.iter().map(|p| p.len() as u64).sum(),
         ..ReadoutReport::default()
     };
-    let before = events.len();
-    events.retain(|e| e.t_us.is_finite() && e.p <= 1);
-    report.dropped_invalid = (before - events.len()) as u64;
-
-    sort_events(&mut events);
+    let mut keys = sorted_keys(parts);
+    report.dropped_invalid = report.events_in - keys.len() as u64;
 
     let refractory = clean(params.refractory_us, 0.0, 1e12, 0.0);
-    if refractory > 0.0 && !events.is_empty() {
-        report.dropped_refractory = refractory_filter(&mut events, refractory);
+    let mut refractory_filter =
+        (refractory > 0.0 && !keys.is_empty()).then(|| RefractoryFilter::new(&keys, refractory));
+    let mut token_bucket = params
+        .bandwidth_ev_per_s
+        .filter(|r| *r > 0.0)
+        .zip(keys.first())
+        .map(|(rate, &first)| {
+            let burst = clean(params.bandwidth_burst_events, 1.0, 1e12, 1.0);
+            TokenBucket::new(rate * 1e-6, burst, key_time(first))
+        });
+    if refractory_filter.is_some() || token_bucket.is_some() {
+        keys.retain(|&key| {
+            let t = key_time(key);
+            if let Some(filter) = &mut refractory_filter {
+                if !filter.pass(t, key_pixel(key)) {
+                    report.dropped_refractory += 1;
+                    return false;
+                }
+            }
+            if let Some(bucket) = &mut token_bucket {
+                if !bucket.pass(t) {
+                    report.dropped_bandwidth += 1;
+                    return false;
+                }
+            }
+            true
+        });
     }
 
-    if let Some(rate) = params.bandwidth_ev_per_s.filter(|r| *r > 0.0) {
-        let burst = clean(params.bandwidth_burst_events, 1.0, 1e12, 1.0);
-        report.dropped_bandwidth = token_bucket(&mut events, rate * 1e-6, burst);
-    }
-
-    let buffer = EventBuffer {
-        t: match params.timestamp {
-            TimestampMode::Round => events.iter().map(|e| e.t_us.round() as i64).collect(),
-            // `floor_i64` is `floor() as i64` without a library call per event.
-            TimestampMode::Truncate => events.iter().map(|e| floor_i64(e.t_us)).collect(),
-        },
-        x: events.iter().map(|e| e.x).collect(),
-        y: events.iter().map(|e| e.y).collect(),
-        p: events.iter().map(|e| e.p).collect(),
-        triggers: Vec::new(),
-    };
+    let buffer = event_buffer(&keys, params.timestamp);
     report.events_out = buffer.len() as u64;
     (buffer, report)
 }
 
-/// Events per bucket [`sort_events`] aims at.
+/// Whether the readout takes an event at all: a finite time and a polarity of 0 or 1.
+#[inline]
+fn is_valid(e: &SimEvent) -> bool {
+    e.t_us.is_finite() && e.p <= 1
+}
+
+/// Events per bucket [`sorted_keys`] aims at.
 const EVENTS_PER_BUCKET: usize = 256;
 
-/// Sort finite-time events by time, then row, column, polarity.
+/// The valid events ([`is_valid`]) of all parts packed ([`pack`]) and sorted: by time, then
+/// row, column, polarity.
 ///
 /// The key orders events totally (equal keys are identical events), so the result is the
-/// same however the work is split. A bucket sort: events go to buckets of equal time span
-/// (a monotone function of time, so the buckets are in order), then each bucket is sorted
-/// on its own, in parallel — a few hundred events in cache instead of one sort of millions.
-/// What is sorted is each event packed into one integer ([`pack`]): a comparison is then
-/// two machine comparisons instead of a four-field tuple built from both events.
-fn sort_events(events: &mut [SimEvent]) {
-    let n = events.len();
-    let (t_min, t_max) = events
-        .iter()
-        .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), e| {
-            (lo.min(e.t_us), hi.max(e.t_us))
-        });
+/// same however the work is split. A parallel bucket sort: each part counts its events per
+/// bucket of equal time span (a monotone function of time, so the buckets are in order) and
+/// writes their keys into the output at its own offsets, the parts in parallel; then each
+/// bucket is sorted on its own, in parallel — a few hundred keys in cache instead of one
+/// sort of millions.
+fn sorted_keys(parts: &[&[SimEvent]]) -> Vec<u128> {
+    let (n, t_min, t_max) = parts
+        .par_iter()
+        .map(|part| {
+            part.iter().filter(|e| is_valid(e)).fold(
+                (0usize, f64::INFINITY, f64::NEG_INFINITY),
+                |(n, lo, hi), e| (n + 1, lo.min(e.t_us), hi.max(e.t_us)),
+            )
+        })
+        .reduce(
+            || (0, f64::INFINITY, f64::NEG_INFINITY),
+            |a, b| (a.0 + b.0, a.1.min(b.1), a.2.max(b.2)),
+        );
     let buckets = n / EVENTS_PER_BUCKET;
     if buckets < 2 || t_max <= t_min {
-        events.par_sort_unstable_by_key(pack);
-        return;
+        let mut keys: Vec<u128> = parts
+            .iter()
+            .flat_map(|part| part.iter().filter(|e| is_valid(e)).map(pack))
+            .collect();
+        keys.par_sort_unstable();
+        return keys;
     }
     let per_us = buckets as f64 / (t_max - t_min);
     let bucket_of = |e: &SimEvent| (((e.t_us - t_min) * per_us) as usize).min(buckets - 1);
-    let mut start = vec![0usize; buckets + 1];
-    for e in events.iter() {
-        start[bucket_of(e) + 1] += 1;
-    }
+
+    // Per part, its events per bucket; then, in place, where its first one goes: bucket `b`
+    // of the output starts at `start[b]` and holds the part's events after those of the
+    // parts before it.
+    let mut offsets: Vec<Vec<usize>> = parts
+        .par_iter()
+        .map(|part| {
+            let mut counts = vec![0usize; buckets];
+            for e in part.iter().filter(|e| is_valid(e)) {
+                counts[bucket_of(e)] += 1;
+            }
+            counts
+        })
+        .collect();
+    let mut start = Vec::with_capacity(buckets + 1);
+    start.push(0usize);
     for b in 0..buckets {
-        start[b + 1] += start[b];
+        let mut offset = start[b];
+        for part in offsets.iter_mut() {
+            (part[b], offset) = (offset, offset + part[b]);
+        }
+        start.push(offset);
     }
-    let mut next = start.clone();
-    let mut sorted = vec![0u128; n];
-    for e in events.iter() {
-        let slot = &mut next[bucket_of(e)];
-        sorted[*slot] = pack(e);
-        *slot += 1;
-    }
-    // Cut the output at bucket boundaries into pieces for the threads.
+
+    let mut keys = vec![0u128; n];
+    let slots = DisjointSlots::new(&mut keys);
+    parts
+        .par_iter()
+        .zip(offsets.par_iter_mut())
+        .for_each(|(part, next)| {
+            for e in part.iter().filter(|e| is_valid(e)) {
+                let slot = &mut next[bucket_of(e)];
+                // SAFETY: the parts' ranges are disjoint: part `p` writes bucket `b` at
+                // `offsets[p][b]..offsets[p][b] + counts[p][b]`, which the prefix sums
+                // above lay end to end without overlap, and each part's task is the only
+                // one advancing its own offsets.
+                unsafe { slots.write(*slot, pack(e)) };
+                *slot += 1;
+            }
+        });
+
     let mut pieces = Vec::with_capacity(buckets);
-    let mut rest = sorted.as_mut_slice();
+    let mut rest = keys.as_mut_slice();
     for b in 0..buckets {
         let (piece, tail) = rest.split_at_mut(start[b + 1] - start[b]);
         pieces.push(piece);
@@ -149,8 +217,39 @@ fn sort_events(events: &mut [SimEvent]) {
         .into_par_iter()
         .with_min_len(64)
         .for_each(|piece| piece.sort_unstable());
-    for (e, &key) in events.iter_mut().zip(&sorted) {
-        *e = unpack(key);
+    keys
+}
+
+/// A slice that several threads write at once, each at indices no other thread writes
+/// ([`sorted_keys`]' scatter, whose destinations are laid out by prefix sums).
+struct DisjointSlots<'a> {
+    ptr: *mut u128,
+    len: usize,
+    _slice: std::marker::PhantomData<&'a mut [u128]>,
+}
+
+// SAFETY: shared between threads only through `write`, whose callers guarantee that no two
+// threads write the same index; the borrow of the slice outlives every such thread.
+unsafe impl Sync for DisjointSlots<'_> {}
+
+impl<'a> DisjointSlots<'a> {
+    fn new(slice: &'a mut [u128]) -> Self {
+        DisjointSlots {
+            ptr: slice.as_mut_ptr(),
+            len: slice.len(),
+            _slice: std::marker::PhantomData,
+        }
+    }
+
+    /// Write `value` at `index` (panics if out of bounds).
+    ///
+    /// # Safety
+    /// No other thread may read or write `index` while the slots exist.
+    #[inline]
+    unsafe fn write(&self, index: usize, value: u128) {
+        assert!(index < self.len, "slot {index} of {}", self.len);
+        // SAFETY: in bounds (checked), and the caller rules out concurrent access.
+        unsafe { self.ptr.add(index).write(value) }
     }
 }
 
@@ -165,15 +264,27 @@ fn pack(e: &SimEvent) -> u128 {
 }
 
 /// The event packed by [`pack`].
-#[inline]
+#[cfg(test)]
 fn unpack(key: u128) -> SimEvent {
-    let low = key as u64;
+    let (x, y) = key_pixel(key);
     SimEvent {
-        t_us: f64::from_bits(unordered_bits((key >> 64) as u64)),
-        x: (low >> 16) as u16,
-        y: (low >> 32) as u16,
-        p: low as u8,
+        t_us: key_time(key),
+        x,
+        y,
+        p: key as u8,
     }
+}
+
+/// The exact time of a packed event ([`pack`]).
+#[inline]
+fn key_time(key: u128) -> f64 {
+    f64::from_bits(unordered_bits((key >> 64) as u64))
+}
+
+/// The column and row of a packed event ([`pack`]).
+#[inline]
+fn key_pixel(key: u128) -> (u16, u16) {
+    ((key >> 16) as u16, (key >> 32) as u16)
 }
 
 /// A key whose unsigned order is the numeric order of finite `t`.
@@ -197,61 +308,126 @@ fn unordered_bits(key: u64) -> u64 {
     }
 }
 
-/// Drop events within `refractory` µs of the previous kept event of the same pixel; returns
-/// how many were dropped. `events` is in time order.
-fn refractory_filter(events: &mut Vec<SimEvent>, refractory: f64) -> u64 {
-    let (x_max, y_max) = events
-        .iter()
-        .fold((0, 0), |(x, y), e| (x.max(e.x), y.max(e.y)));
-    let (width, height) = (x_max as usize + 1, y_max as usize + 1);
-    let limit = refractory - REFRACTORY_TOLERANCE_US;
-    let before = events.len();
-    if width * height <= DENSE_TABLE_LIMIT {
-        let mut last = vec![f64::NEG_INFINITY; width * height];
-        events.retain(|e| {
-            let slot = &mut last[e.y as usize * width + e.x as usize];
-            if e.t_us - *slot < limit {
-                false
-            } else {
-                *slot = e.t_us;
-                true
-            }
-        });
-    } else {
-        let mut last: HashMap<(u16, u16), f64> = HashMap::new();
-        events.retain(|e| {
-            let slot = last.entry((e.x, e.y)).or_insert(f64::NEG_INFINITY);
-            if e.t_us - *slot < limit {
-                false
-            } else {
-                *slot = e.t_us;
-                true
-            }
-        });
-    }
-    (before - events.len()) as u64
+/// The refractory filter of [`read_out`], fed the events in time order: an event within
+/// `refractory` µs (less [`REFRACTORY_TOLERANCE_US`]) of the previous kept event of its
+/// pixel does not pass.
+struct RefractoryFilter {
+    limit: f64,
+    /// Time of the last kept event per pixel, in a dense table or, for a sensor too large
+    /// for one, a map.
+    last: PixelTable,
 }
 
-/// The token bucket of [`read_out`]: `rate` tokens per µs, depth `burst`; returns the number
-/// of events dropped. `events` is in time order.
-fn token_bucket(events: &mut Vec<SimEvent>, rate: f64, burst: f64) -> u64 {
-    let Some(first) = events.first() else {
-        return 0;
-    };
-    let mut tokens = burst;
-    let mut last = first.t_us;
-    let before = events.len();
-    events.retain(|e| {
-        tokens = (tokens + (e.t_us - last) * rate).min(burst);
-        last = e.t_us;
-        if tokens >= 1.0 - 1e-9 {
-            tokens -= 1.0;
+enum PixelTable {
+    Dense { width: usize, last: Vec<f64> },
+    Sparse(HashMap<(u16, u16), f64>),
+}
+
+impl RefractoryFilter {
+    /// A filter for the pixels of `keys` (packed events, [`pack`]).
+    fn new(keys: &[u128], refractory: f64) -> Self {
+        let (x_max, y_max) = keys
+            .par_iter()
+            .map(|&key| key_pixel(key))
+            .reduce(|| (0, 0), |a, b| (a.0.max(b.0), a.1.max(b.1)));
+        let (width, height) = (x_max as usize + 1, y_max as usize + 1);
+        let last = if width * height <= DENSE_TABLE_LIMIT {
+            PixelTable::Dense {
+                width,
+                last: vec![f64::NEG_INFINITY; width * height],
+            }
+        } else {
+            PixelTable::Sparse(HashMap::new())
+        };
+        RefractoryFilter {
+            limit: refractory - REFRACTORY_TOLERANCE_US,
+            last,
+        }
+    }
+
+    /// Whether the event at `t` of pixel `(x, y)` passes; if it does, it is the pixel's last.
+    #[inline]
+    fn pass(&mut self, t: f64, (x, y): (u16, u16)) -> bool {
+        let slot = match &mut self.last {
+            PixelTable::Dense { width, last } => &mut last[y as usize * *width + x as usize],
+            PixelTable::Sparse(map) => map.entry((x, y)).or_insert(f64::NEG_INFINITY),
+        };
+        if t - *slot < self.limit {
+            false
+        } else {
+            *slot = t;
+            true
+        }
+    }
+}
+
+/// The token bucket of [`read_out`], fed the events in time order: `rate` tokens per µs,
+/// depth `burst`, full at the first event.
+struct TokenBucket {
+    rate: f64,
+    burst: f64,
+    tokens: f64,
+    last: f64,
+}
+
+impl TokenBucket {
+    fn new(rate: f64, burst: f64, first: f64) -> Self {
+        TokenBucket {
+            rate,
+            burst,
+            tokens: burst,
+            last: first,
+        }
+    }
+
+    /// Whether an event at `t` finds a token (and takes it).
+    #[inline]
+    fn pass(&mut self, t: f64) -> bool {
+        self.tokens = (self.tokens + (t - self.last) * self.rate).min(self.burst);
+        self.last = t;
+        if self.tokens >= 1.0 - 1e-9 {
+            self.tokens -= 1.0;
             true
         } else {
             false
         }
-    });
-    (before - events.len()) as u64
+    }
+}
+
+/// Events per task when [`event_buffer`] fills its arrays.
+const BUFFER_CHUNK: usize = 1 << 16;
+
+/// The packed events `keys` as an event buffer, time stamps rounded or truncated to 1 µs;
+/// filled in parallel.
+fn event_buffer(keys: &[u128], timestamp: TimestampMode) -> EventBuffer {
+    let n = keys.len();
+    let mut buffer = EventBuffer {
+        t: vec![0; n],
+        x: vec![0; n],
+        y: vec![0; n],
+        p: vec![0; n],
+        triggers: Vec::new(),
+    };
+    let stamp = |t: f64| match timestamp {
+        TimestampMode::Round => t.round() as i64,
+        // `floor_i64` is `floor() as i64` without a library call per event.
+        TimestampMode::Truncate => floor_i64(t),
+    };
+    buffer
+        .t
+        .par_chunks_mut(BUFFER_CHUNK)
+        .zip(buffer.x.par_chunks_mut(BUFFER_CHUNK))
+        .zip(buffer.y.par_chunks_mut(BUFFER_CHUNK))
+        .zip(buffer.p.par_chunks_mut(BUFFER_CHUNK))
+        .zip(keys.par_chunks(BUFFER_CHUNK))
+        .for_each(|((((t, x), y), p), keys)| {
+            for (k, &key) in keys.iter().enumerate() {
+                t[k] = stamp(key_time(key));
+                (x[k], y[k]) = key_pixel(key);
+                p[k] = key as u8;
+            }
+        });
+    buffer
 }
 
 #[cfg(test)]

@@ -287,16 +287,19 @@ impl Curve {
         l
     }
 
-    /// `L(s)`, `dL/ds` and `d²L/ds²` of the low-pass response from one exponential.
+    /// `L(s)`, `dL/ds` and `d²L/ds²` of the low-pass response from one exponential, for the
+    /// root finder: `inv_omega` is `1/ω`, so that the value needs no division (it may differ
+    /// from [`Curve::value`] in the last bit, which moves a root by far less than its
+    /// tolerance).
     #[inline]
-    fn derivatives(&self, s: f64) -> (f64, f64, f64) {
+    fn derivatives(&self, s: f64, inv_omega: f64) -> (f64, f64, f64) {
         let ds = s - self.ta;
         match self.kind {
             Kind::Linear { slope } => (self.la + slope * ds, slope, 0.0),
             Kind::Relax { gap, m, omega } => {
                 let e = fastmath::exp(-omega * ds);
                 let e1 = 1.0 - e;
-                let value = self.la + gap * e1 + m * (ds - e1 / omega);
+                let value = self.la + gap * e1 + m * (ds - e1 * inv_omega);
                 let slope = gap * omega * e + m * e1;
                 let curvature = -omega * e * (gap * omega - m);
                 (value, slope, curvature)
@@ -354,16 +357,21 @@ impl Curve {
     /// `K = c² + ω|c|/3` with `c = L″/(2L′)` (here `L‴ = −ω·L″`); a Newton step (taken when
     /// the Halley correction is large) about `|c|·h²`. Once that is below the tolerance the
     /// step is taken without a further evaluation.
+    ///
+    /// The iterations form one chain of dependent operations, so it is written with one
+    /// division per step: the Halley step `f/L′ / (1 − f·c/L′)` as `2fL′ / (2L′² − fL″)`, and
+    /// `1/ω` taken once.
     fn newton(&self, level: f64, s0: f64, s1: f64, l0: f64, l1: f64) -> f64 {
         let omega = match self.kind {
             Kind::Relax { omega, .. } => omega,
             Kind::Linear { .. } => 0.0,
         };
+        let inv_omega = 1.0 / omega;
         let increasing = l1 > l0;
         let (mut lo, mut hi) = (s0, s1);
         let mut s = s0 + (level - l0) / (l1 - l0) * (s1 - s0);
         for _ in 0..40 {
-            let (value, slope, curvature) = self.derivatives(s);
+            let (value, slope, curvature) = self.derivatives(s, inv_omega);
             let f = value - level;
             if f == 0.0 {
                 return s;
@@ -373,11 +381,15 @@ impl Curve {
             } else {
                 hi = s;
             }
-            let newton = f / slope;
-            let c = curvature / (2.0 * slope);
-            let denominator = 1.0 - newton * c;
-            let halley = denominator > 0.5;
-            let h = if halley { newton / denominator } else { newton };
+            // Halley's denominator 1 − f·c/L′ > ½, i.e. 2L′² − fL″ > L′².
+            let slope2 = slope * slope;
+            let denominator = 2.0 * slope2 - f * curvature;
+            let halley = denominator > slope2;
+            let h = if halley {
+                2.0 * f * slope / denominator
+            } else {
+                f / slope
+            };
             let mut next = s - h;
             let in_bracket = next > lo && next < hi;
             if !in_bracket {
@@ -389,6 +401,7 @@ impl Curve {
                 break;
             }
             if in_bracket {
+                let c = curvature / (2.0 * slope);
                 let predicted = if halley {
                     (c * c + omega * c.abs() / 3.0) * step * step * step
                 } else {

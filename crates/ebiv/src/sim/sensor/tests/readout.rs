@@ -2,6 +2,7 @@
 
 use super::*;
 use crate::error::Error;
+use crate::event::EventBuffer;
 
 fn ev(t_us: f64, x: u16, y: u16, p: u8) -> SimEvent {
     SimEvent { t_us, x, y, p }
@@ -71,6 +72,136 @@ fn read_out_orders_quantises_and_filters() {
     p.timestamp = TimestampMode::Truncate;
     let (out, _) = read_out(events, &p);
     assert_eq!(out.t, vec![2, 10, 11]);
+}
+
+/// The readout as its documentation defines it, one step at a time: drop invalid events,
+/// sort by (time, row, column, polarity), the refractory filter, the token bucket, stamps.
+fn reference_read_out(events: &[SimEvent], p: &SensorParams) -> (EventBuffer, ReadoutReport) {
+    let mut kept: Vec<SimEvent> = events
+        .iter()
+        .copied()
+        .filter(|e| e.t_us.is_finite() && e.p <= 1)
+        .collect();
+    let mut report = ReadoutReport {
+        events_in: events.len() as u64,
+        dropped_invalid: (events.len() - kept.len()) as u64,
+        ..ReadoutReport::default()
+    };
+    kept.sort_by(|a, b| {
+        a.t_us
+            .total_cmp(&b.t_us)
+            .then((a.y, a.x, a.p).cmp(&(b.y, b.x, b.p)))
+    });
+    let mut last = std::collections::HashMap::new();
+    let before = kept.len();
+    kept.retain(|e| {
+        let slot = last.entry((e.x, e.y)).or_insert(f64::NEG_INFINITY);
+        let keep = e.t_us - *slot >= p.refractory_us - 1e-6;
+        if keep {
+            *slot = e.t_us;
+        }
+        keep
+    });
+    report.dropped_refractory = (before - kept.len()) as u64;
+    if let (Some(rate), Some(first)) = (p.bandwidth_ev_per_s, kept.first().copied()) {
+        let (mut tokens, mut t_last) = (p.bandwidth_burst_events, first.t_us);
+        let before = kept.len();
+        kept.retain(|e| {
+            tokens = (tokens + (e.t_us - t_last) * rate * 1e-6).min(p.bandwidth_burst_events);
+            t_last = e.t_us;
+            let pass = tokens >= 1.0 - 1e-9;
+            if pass {
+                tokens -= 1.0;
+            }
+            pass
+        });
+        report.dropped_bandwidth = (before - kept.len()) as u64;
+    }
+    report.events_out = kept.len() as u64;
+    let stamp = |t: f64| match p.timestamp {
+        TimestampMode::Round => t.round() as i64,
+        TimestampMode::Truncate => t.floor() as i64,
+    };
+    let buffer = EventBuffer {
+        t: kept.iter().map(|e| stamp(e.t_us)).collect(),
+        x: kept.iter().map(|e| e.x).collect(),
+        y: kept.iter().map(|e| e.y).collect(),
+        p: kept.iter().map(|e| e.p).collect(),
+        triggers: Vec::new(),
+    };
+    (buffer, report)
+}
+
+/// The parallel readout of several parts (bucket sort over the parts, one filter pass, the
+/// arrays filled in parallel) against the step-by-step definition, on events with ties in
+/// time, invalid ones, refractory collisions and a saturated bandwidth, cut into parts in
+/// several ways and in every thread count from 1 to 4.
+#[test]
+fn read_out_of_parts_matches_the_step_by_step_definition() {
+    let mut next = crate::test_rng::xorshift(0x5EED_0EAD);
+    let mut events = Vec::new();
+    for k in 0..40_000u64 {
+        let r = next();
+        // Times on a coarse grid (many exact ties) or anywhere, a few invalid.
+        let t_us = match r % 50 {
+            0 => f64::NAN,
+            1 => f64::INFINITY,
+            2..=24 => ((r >> 8) % 5_000) as f64 * 0.25,
+            _ => ((r >> 8) % 1_250_000) as f64 * 1e-3 - 7.0,
+        };
+        let p = if k % 997 == 0 {
+            2
+        } else {
+            ((r >> 40) & 1) as u8
+        };
+        events.push(ev(
+            t_us,
+            ((r >> 20) % 40) as u16,
+            ((r >> 30) % 30) as u16,
+            p,
+        ));
+    }
+    for (refractory, bandwidth, timestamp) in [
+        (0.0, None, TimestampMode::Round),
+        (3.0, None, TimestampMode::Truncate),
+        (1.0, Some(2e7), TimestampMode::Round),
+        (0.5, Some(4e8), TimestampMode::Truncate),
+    ] {
+        let mut p = SensorParams::ideal();
+        p.refractory_us = refractory;
+        p.bandwidth_ev_per_s = bandwidth;
+        p.bandwidth_burst_events = 8.0;
+        p.timestamp = timestamp;
+        let (want, want_report) = reference_read_out(&events, &p);
+        assert!(want_report.dropped_invalid > 0 && want.len() > 10_000);
+        if refractory > 0.0 {
+            assert!(want_report.dropped_refractory > 0, "{want_report:?}");
+        }
+        if bandwidth == Some(2e7) {
+            assert!(want_report.dropped_bandwidth > 0, "{want_report:?}");
+        }
+        for threads in 1..=4 {
+            let pool = rayon::ThreadPoolBuilder::new()
+                .num_threads(threads)
+                .build()
+                .unwrap();
+            for cuts in [vec![], vec![1, 2, 20_000], vec![5_000, 5_001, 39_999]] {
+                let mut parts = Vec::new();
+                let mut from = 0;
+                for &c in cuts.iter().chain([events.len()].iter()) {
+                    parts.push(&events[from..c]);
+                    from = c;
+                }
+                parts.reverse(); // any order of parts
+                let (got, report) = pool.install(|| read_out_parts(&parts, &p));
+                assert_eq!(report, want_report, "{threads} threads, cuts {cuts:?}");
+                assert!(
+                    got == want,
+                    "{threads} threads, cuts {cuts:?}: buffers differ"
+                );
+            }
+        }
+    }
 }
 
 #[test]
