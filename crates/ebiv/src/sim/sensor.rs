@@ -17,8 +17,8 @@
 //! * Change detector: ON when `L_lp − L_ref ≥ θ_on(x)`, OFF when `≤ −θ_off(x)`; the reference
 //!   then moves by exactly one threshold (residual kept); θ(x) frozen per pixel, N(θ, σ)
 //!   clamped ≥ 0.01 (v2e, §2.1, §2.3). Crossing times are those of the continuous `L_lp`
-//!   (linear interpolation where `L_lp` is linear, Newton on the exact solution otherwise), so
-//!   they are not quantised to the caller's steps (§2.9, §3).
+//!   (linear interpolation where `L_lp` is linear, safeguarded Halley iteration on the exact
+//!   solution otherwise), so they are not quantised to the caller's steps (§2.9, §3).
 //! * Refractory period: after an event the pixel is blind until trip + `refractory_us`;
 //!   crossings in that time are counted, not reported, and at its end the reference resets to
 //!   the current `L_lp` (IEBCS: Joubert et al., "Event camera simulator improvements via
@@ -32,7 +32,7 @@
 //!
 //! Typical use: one [`SensorBand`] per group of rows (run in parallel), `adapt` to the first
 //! frame, then per time step `advance` with the pixels whose irradiance changed, `noise` over
-//! the recording, and finally [`read_out`] of all events (add each band's
+//! the recording, and finally [`read_out_parts`] of all bands' events (add each band's
 //! [`SensorBand::counters`] to the report with [`ReadoutReport::absorb`]).
 
 mod active;

@@ -53,10 +53,12 @@ const DENSE_TABLE_LIMIT: usize = 1 << 24;
 /// readout bandwidth limit, quantise to 1 µs, and return the events in time order.
 ///
 /// * **Order**: exact time, then row, column, polarity — a total order, so the result does not
-///   depend on the order of `events` (how bands were concatenated).
-/// * **Refractory**: an event closer than `refractory_us` (less 1e-6 µs) to the previous kept
-///   event of its pixel is dropped; the earlier event wins (IEBCS: a pixel is blind after any
-///   event, §2.5).
+///   depend on the order of `events` (nor, in [`read_out_parts`], on how they are split into
+///   parts).
+/// * **Refractory**: an event closer than `refractory_us` (less 1e-6 µs) to the previous event
+///   of its pixel that passed this filter is dropped; the earlier event wins (IEBCS: a pixel
+///   is blind after any event, §2.5). An event the bandwidth limit then drops has still
+///   blinded its pixel.
 /// * **Bandwidth** (`bandwidth_ev_per_s = R`, `bandwidth_burst_events = D`): a token bucket.
 ///   It holds up to D tokens, starts full and refills at R per second; an event passes if a
 ///   token is available and takes it, and is dropped when the bucket is empty — so the
@@ -74,9 +76,11 @@ pub fn read_out(events: Vec<SimEvent>, params: &SensorParams) -> (EventBuffer, R
 /// the parts and their order.
 ///
 /// The work is spread over the threads: the events are put in order by a parallel bucket
-/// sort of packed keys ([`sorted_keys`]), the refractory filter and the token bucket run in
-/// one pass over the keys (both go in time order, and the token bucket sees exactly the
-/// events the refractory filter keeps), and the output arrays are filled in parallel.
+/// sort of packed keys ([`sorted_keys`]; one part is scattered by one thread), the
+/// refractory filter and the token bucket run in one pass over the keys (both go in time
+/// order, and the token bucket sees exactly the events the refractory filter keeps), and the
+/// output arrays are filled in parallel. The bucket starts full at the first event overall,
+/// which is also the first the refractory filter keeps (its pixel has no earlier event).
 pub fn read_out_parts(
     parts: &[&[SimEvent]],
     params: &SensorParams,
@@ -166,10 +170,10 @@ fn sorted_keys(parts: &[&[SimEvent]]) -> Vec<u128> {
     let per_us = buckets as f64 / (t_max - t_min);
     let bucket_of = |e: &SimEvent| (((e.t_us - t_min) * per_us) as usize).min(buckets - 1);
 
-    // Per part, its events per bucket; then, in place, where its first one goes: bucket `b`
-    // of the output starts at `start[b]` and holds the part's events after those of the
-    // parts before it.
-    let mut offsets: Vec<Vec<usize>> = parts
+    // Per part, its events per bucket; then where its first and last one go: bucket `b` of
+    // the output starts at `start[b]` and holds the part's events after those of the parts
+    // before it.
+    let counts: Vec<Vec<usize>> = parts
         .par_iter()
         .map(|part| {
             let mut counts = vec![0usize; buckets];
@@ -179,12 +183,15 @@ fn sorted_keys(parts: &[&[SimEvent]]) -> Vec<u128> {
             counts
         })
         .collect();
+    let mut offsets = counts.clone();
+    let mut ends = counts;
     let mut start = Vec::with_capacity(buckets + 1);
     start.push(0usize);
     for b in 0..buckets {
         let mut offset = start[b];
-        for part in offsets.iter_mut() {
-            (part[b], offset) = (offset, offset + part[b]);
+        for (first, end) in offsets.iter_mut().zip(ends.iter_mut()) {
+            (first[b], end[b]) = (offset, offset + end[b]);
+            offset = end[b];
         }
         start.push(offset);
     }
@@ -194,13 +201,15 @@ fn sorted_keys(parts: &[&[SimEvent]]) -> Vec<u128> {
     parts
         .par_iter()
         .zip(offsets.par_iter_mut())
-        .for_each(|(part, next)| {
+        .zip(ends.par_iter())
+        .for_each(|((part, next), ends)| {
             for e in part.iter().filter(|e| is_valid(e)) {
-                let slot = &mut next[bucket_of(e)];
-                // SAFETY: the parts' ranges are disjoint: part `p` writes bucket `b` at
-                // `offsets[p][b]..offsets[p][b] + counts[p][b]`, which the prefix sums
-                // above lay end to end without overlap, and each part's task is the only
-                // one advancing its own offsets.
+                let b = bucket_of(e);
+                let slot = &mut next[b];
+                assert!(*slot < ends[b], "bucket {b} of a part overflows its range");
+                // SAFETY: part `p` writes bucket `b` only inside `offsets[p][b]..ends[p][b]`
+                // (asserted), ranges the prefix sums above lay end to end without overlap,
+                // and each part's task is the only one advancing its own offsets.
                 unsafe { slots.write(*slot, pack(e)) };
                 *slot += 1;
             }
@@ -229,7 +238,8 @@ struct DisjointSlots<'a> {
 }
 
 // SAFETY: shared between threads only through `write`, whose callers guarantee that no two
-// threads write the same index; the borrow of the slice outlives every such thread.
+// threads write the same index; the slice stays mutably borrowed, so untouched by anything
+// else, until every task of the scatter has ended.
 unsafe impl Sync for DisjointSlots<'_> {}
 
 impl<'a> DisjointSlots<'a> {

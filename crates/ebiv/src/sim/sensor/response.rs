@@ -359,14 +359,16 @@ impl Curve {
     /// step is taken without a further evaluation.
     ///
     /// The iterations form one chain of dependent operations, so it is written with one
-    /// division per step: the Halley step `f/L′ / (1 − f·c/L′)` as `2fL′ / (2L′² − fL″)`, and
-    /// `1/ω` taken once.
+    /// division per step on that chain: the Halley step `f/L′ / (1 − f·c/L′)` as
+    /// `2fL′ / (2L′² − fL″)`, and `1/ω` taken once (the stopping rule's `c` is a division
+    /// off the chain).
     fn newton(&self, level: f64, s0: f64, s1: f64, l0: f64, l1: f64) -> f64 {
         let omega = match self.kind {
             Kind::Relax { omega, .. } => omega,
             Kind::Linear { .. } => 0.0,
         };
-        let inv_omega = 1.0 / omega;
+        // Finite even for a subnormal ω (where `e1·(1/ω)` would be 0·∞).
+        let inv_omega = (1.0 / omega).min(f64::MAX);
         let increasing = l1 > l0;
         let (mut lo, mut hi) = (s0, s1);
         let mut s = s0 + (level - l0) / (l1 - l0) * (s1 - s0);

@@ -103,11 +103,13 @@ fn reference_read_out(events: &[SimEvent], p: &SensorParams) -> (EventBuffer, Re
         keep
     });
     report.dropped_refractory = (before - kept.len()) as u64;
-    if let (Some(rate), Some(first)) = (p.bandwidth_ev_per_s, kept.first().copied()) {
+    let rate = p.bandwidth_ev_per_s.filter(|&r| r > 0.0);
+    if let (Some(rate), Some(first)) = (rate, kept.first().copied()) {
+        let rate = rate * 1e-6; // per µs
         let (mut tokens, mut t_last) = (p.bandwidth_burst_events, first.t_us);
         let before = kept.len();
         kept.retain(|e| {
-            tokens = (tokens + (e.t_us - t_last) * rate * 1e-6).min(p.bandwidth_burst_events);
+            tokens = (tokens + (e.t_us - t_last) * rate).min(p.bandwidth_burst_events);
             t_last = e.t_us;
             let pass = tokens >= 1.0 - 1e-9;
             if pass {
@@ -180,28 +182,72 @@ fn read_out_of_parts_matches_the_step_by_step_definition() {
         if bandwidth == Some(2e7) {
             assert!(want_report.dropped_bandwidth > 0, "{want_report:?}");
         }
-        for threads in 1..=4 {
-            let pool = rayon::ThreadPoolBuilder::new()
-                .num_threads(threads)
-                .build()
-                .unwrap();
-            for cuts in [vec![], vec![1, 2, 20_000], vec![5_000, 5_001, 39_999]] {
-                let mut parts = Vec::new();
-                let mut from = 0;
-                for &c in cuts.iter().chain([events.len()].iter()) {
-                    parts.push(&events[from..c]);
-                    from = c;
-                }
-                parts.reverse(); // any order of parts
-                let (got, report) = pool.install(|| read_out_parts(&parts, &p));
-                assert_eq!(report, want_report, "{threads} threads, cuts {cuts:?}");
-                assert!(
-                    got == want,
-                    "{threads} threads, cuts {cuts:?}: buffers differ"
-                );
+        assert_parts_match_reference(
+            &events,
+            &p,
+            &[vec![], vec![1, 2, 20_000], vec![0, 0, 5_000, 5_001, 39_999]],
+        );
+    }
+}
+
+/// [`read_out_parts`] of `events` cut at each of `cut_sets` (and the parts reversed), in
+/// 1 to 4 threads, against [`reference_read_out`].
+fn assert_parts_match_reference(events: &[SimEvent], p: &SensorParams, cut_sets: &[Vec<usize>]) {
+    let (want, want_report) = reference_read_out(events, p);
+    for threads in 1..=4 {
+        let pool = rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build()
+            .unwrap();
+        for cuts in cut_sets {
+            let mut parts = Vec::new();
+            let mut from = 0;
+            for &c in cuts.iter().chain([events.len()].iter()) {
+                parts.push(&events[from..c]);
+                from = c;
             }
+            parts.reverse(); // any order of parts
+            let (got, report) = pool.install(|| read_out_parts(&parts, p));
+            assert_eq!(report, want_report, "{threads} threads, cuts {cuts:?}");
+            assert!(
+                got == want,
+                "{threads} threads, cuts {cuts:?}: buffers differ"
+            );
         }
     }
+}
+
+/// The same on the edges: few events (one sort instead of buckets), every event at one
+/// time, the extreme finite times with both zeros, a subnormal spread, pixels beyond the
+/// dense table (a map of last times), and a bandwidth of 0 (no limit).
+#[test]
+fn read_out_of_parts_matches_the_definition_on_edge_cases() {
+    let mut p = SensorParams::ideal();
+    p.refractory_us = 2.0;
+    let cuts = [vec![], vec![0, 1], vec![3, 3, 200]];
+    let few: Vec<SimEvent> = (0..400u16)
+        .map(|k| ev(f64::from(k % 37) * 0.7, k % 5, k % 3, (k % 2) as u8))
+        .collect();
+    assert_parts_match_reference(&few, &p, &cuts);
+    let same_time: Vec<SimEvent> = (0..3_000u16)
+        .map(|k| ev(5.0, k % 61, k / 61, (k % 2) as u8))
+        .collect();
+    assert_parts_match_reference(&same_time, &p, &cuts);
+    let mut extremes = Vec::new();
+    for k in 0..2_000u16 {
+        let t = [f64::MAX, -f64::MAX, 0.0, -0.0, 1e-310, 5e-324][k as usize % 6];
+        extremes.push(ev(t, k % 7, 65_535 - k % 3, 1));
+    }
+    extremes.push(ev(3.0, 65_535, 65_535, 0));
+    extremes.push(ev(4.0, 65_535, 65_535, 1)); // within 2 µs: refractory, in the map
+    p.bandwidth_ev_per_s = Some(0.0);
+    let (_, report) = reference_read_out(&extremes, &p);
+    assert!(report.dropped_refractory > 0, "{report:?}");
+    assert_parts_match_reference(&extremes, &p, &cuts);
+    let subnormal: Vec<SimEvent> = (0..2_000u16)
+        .map(|k| ev(f64::from(k % 9) * 5e-324, k % 11, k % 13, 0))
+        .collect();
+    assert_parts_match_reference(&subnormal, &p, &cuts);
 }
 
 #[test]
