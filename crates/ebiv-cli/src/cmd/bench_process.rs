@@ -17,10 +17,10 @@ pub struct ProcessBenchArgs {
     /// Simulated recording length (fields every 10 ms over it).
     #[arg(long, default_value = "200ms", value_parser = ebiv::units::parse_us)]
     pub duration: i64,
-    /// Seeding density of the `paper-rate` scene in particles per pixel (the default gives
-    /// 20.1 M events/s over one second, the paper's rate).
-    #[arg(long, default_value_t = 0.00152)]
-    pub density: f64,
+    /// Seeding density in particles per pixel, instead of the `paper-rate` scene's 0.00152
+    /// (20.1 M events/s over one second, the paper's rate).
+    #[arg(long)]
+    pub density: Option<f64>,
     /// Window size and grid step in px.
     #[arg(long, default_value_t = 40)]
     pub window: u32,
@@ -39,7 +39,9 @@ pub fn run(args: &ProcessBenchArgs) -> Result<(), ebiv::Error> {
     let text = ebiv::sim::scenario::Scenario::example("paper-rate").expect("built-in example");
     let mut scenario = super::simulate::parse_scenario(text, "paper-rate")?;
     scenario.duration = args.duration;
-    scenario.particles.density = args.density;
+    if let Some(density) = args.density {
+        scenario.particles.density = density;
+    }
     let sim = scenario.simulation()?;
     let started = Instant::now();
     let events = sim.run(None, &|_| {})?.events;
