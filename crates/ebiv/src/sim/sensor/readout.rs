@@ -127,16 +127,17 @@ pub fn read_out_parts(
     (buffer, report)
 }
 
-/// Whether the readout takes an event at all: a finite time and a polarity of 0 or 1.
+/// The events of `part` the readout takes at all: a finite time and a polarity of 0 or 1.
+/// Every pass over the parts goes through this one filter, so that they agree on the events.
 #[inline]
-fn is_valid(e: &SimEvent) -> bool {
-    e.t_us.is_finite() && e.p <= 1
+fn valid_events(part: &[SimEvent]) -> impl Iterator<Item = &SimEvent> {
+    part.iter().filter(|e| e.t_us.is_finite() && e.p <= 1)
 }
 
 /// Events per bucket [`sorted_keys`] aims at.
 const EVENTS_PER_BUCKET: usize = 256;
 
-/// The valid events ([`is_valid`]) of all parts packed ([`pack`]) and sorted: by time, then
+/// The valid events ([`valid_events`]) of all parts packed ([`pack`]) and sorted: by time, then
 /// row, column, polarity.
 ///
 /// The key orders events totally (equal keys are identical events), so the result is the
@@ -149,7 +150,7 @@ fn sorted_keys(parts: &[&[SimEvent]]) -> Vec<u128> {
     let (n, t_min, t_max) = parts
         .par_iter()
         .map(|part| {
-            part.iter().filter(|e| is_valid(e)).fold(
+            valid_events(part).fold(
                 (0usize, f64::INFINITY, f64::NEG_INFINITY),
                 |(n, lo, hi), e| (n + 1, lo.min(e.t_us), hi.max(e.t_us)),
             )
@@ -162,7 +163,7 @@ fn sorted_keys(parts: &[&[SimEvent]]) -> Vec<u128> {
     if buckets < 2 || t_max <= t_min {
         let mut keys: Vec<u128> = parts
             .iter()
-            .flat_map(|part| part.iter().filter(|e| is_valid(e)).map(pack))
+            .flat_map(|part| valid_events(part).map(pack))
             .collect();
         keys.par_sort_unstable();
         return keys;
@@ -177,7 +178,7 @@ fn sorted_keys(parts: &[&[SimEvent]]) -> Vec<u128> {
         .par_iter()
         .map(|part| {
             let mut counts = vec![0usize; buckets];
-            for e in part.iter().filter(|e| is_valid(e)) {
+            for e in valid_events(part) {
                 counts[bucket_of(e)] += 1;
             }
             counts
@@ -203,7 +204,7 @@ fn sorted_keys(parts: &[&[SimEvent]]) -> Vec<u128> {
         .zip(offsets.par_iter_mut())
         .zip(ends.par_iter())
         .for_each(|((part, next), ends)| {
-            for e in part.iter().filter(|e| is_valid(e)) {
+            for e in valid_events(part) {
                 let b = bucket_of(e);
                 let slot = &mut next[b];
                 assert!(*slot < ends[b], "bucket {b} of a part overflows its range");
