@@ -137,7 +137,7 @@ fn turntable_event_deformation_removes_gradient_error() {
 /// at their sub-pixel positions (instead of rounded to pixels) and the predictor's
 /// displacement removed exactly. On the turntable of the previous test the rounding of the
 /// deformed positions is most of the error: measured RMS 0.0273 → 0.0161 px/ms (DVR 116 →
-/// 196); removing only the sub-pixel part of the displacement from the plane, with rounded
+/// 197); removing only the sub-pixel part of the displacement from the plane, with rounded
 /// positions, gave 0.030.
 #[test]
 fn turntable_subpixel_event_positions_raise_the_corrsum_dvr() {
@@ -222,11 +222,11 @@ core_radius = 25.0"#;
 /// with sub-pixel event positions and count weighting (`--subpixel-shift --weighting count`)
 /// at τ = 8 ms. Deformation removes the rotation's gradient and curvature, so τ is no longer
 /// bound by decorrelation and the same displacement error is a 2.7× smaller velocity error.
-/// Measured (seeds 12 / 13 / 14): DVR 607 / 641 / 537 at τ = 8 ms; at the paper's τ = 3 ms
-/// 412 / 430 / 294 with these options and 160 / 166 / 144 without them (printed; bound: the
+/// Measured (seeds 12 / 13 / 14): DVR 609 / 641 / 537 at τ = 8 ms; at the paper's τ = 3 ms
+/// 413 / 430 / 294 with these options and 160 / 166 / 144 without them (printed; bound: the
 /// options cut the RMS by 30 %). With 32 px windows in the last pass (step 16) `ebiv process`
 /// gives 423 / 295 / 257 at τ = 8 ms: random error falls with the number of events per window.
-/// Motion compensation with its defaults, same passes: DVR 205 / 191 / 189 (printed).
+/// Motion compensation with its defaults, same passes: DVR 205 / 190 / 189 (printed).
 /// The first pass's search radius (21 px of a 64 px window) covers 2.6 px/ms at τ = 8 ms;
 /// faster windows are found from their neighbours' prediction in the second pass.
 #[test]
