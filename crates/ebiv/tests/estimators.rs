@@ -225,7 +225,8 @@ core_radius = 25.0"#;
 /// Measured (seeds 12 / 13 / 14): DVR 609 / 641 / 537 at τ = 8 ms; at the paper's τ = 3 ms
 /// 413 / 430 / 294 with these options and 160 / 166 / 144 without them (printed; bound: the
 /// options cut the RMS by 30 %). With 32 px windows in the last pass (step 16) `ebiv process`
-/// gives 423 / 295 / 257 at τ = 8 ms: random error falls with the number of events per window.
+/// gave 423 / 295 / 257 at τ = 8 ms (events of the earlier image floor, 1e-4): random error
+/// falls with the number of events per window.
 /// Motion compensation with its defaults, same passes: DVR 205 / 190 / 189 (printed).
 /// The first pass's search radius (21 px of a 64 px window) covers 2.6 px/ms at τ = 8 ms;
 /// faster windows are found from their neighbours' prediction in the second pass.

@@ -381,9 +381,10 @@ impl Spot {
 /// 98 % of the events are identical to the µs (mean |Δt| 0.16 µs), the event count changes
 /// by 7 in 2.1 M, and both floors are equally far from a reference sampled five times finer
 /// (0.05 px per step: median |Δt| 3 µs, mean 12.4 µs, the error of the 0.25 px time
-/// sampling), so the cut is about two orders of magnitude below the model's sampling error. The simulator runs about 11 % faster
-/// (fewer pixels per particle image: for a 2.5 px particle of peak 5, the disc above the
-/// floor shrinks from a radius of about 2.9 px to 2.6 px). docs/performance.md has the comparison.
+/// sampling), so the cut is about two orders of magnitude below the model's sampling error.
+/// The simulator runs 9–11 % faster (fewer pixels per particle image: for a 2.5 px particle
+/// of peak 5, the disc above the floor shrinks from a radius of about 2.9 px to 2.6 px).
+/// docs/performance.md has the comparison.
 pub const IMAGE_FLOOR: f64 = 1e-3;
 
 /// Fraction of a unit Gaussian line spread (scale `s`) falling on each pixel `lo..=hi` around
