@@ -365,6 +365,12 @@ pub struct Spot {
 }
 
 impl Spot {
+    /// The same image centred at `(x, y)`: what [`ParticleRenderer::spot`] gives for the same
+    /// particle moved there (nothing else of an image depends on the particle's position).
+    pub(crate) fn centred_at(self, x: f64, y: f64) -> Spot {
+        Spot { x, y, ..self }
+    }
+
     /// The rows `(first, last)` the image may reach (not clipped to the sensor).
     pub fn rows(&self) -> (i64, i64) {
         (

@@ -73,7 +73,7 @@ pub struct SimOutput {
 }
 
 /// Rows per band: small enough for both cores to stay busy, large enough to amortise.
-const BAND_ROWS: u32 = 32;
+const BAND_ROWS: u32 = 48;
 
 /// Samples each band processes per parallel task.
 const SAMPLES_PER_BATCH: usize = 64;
@@ -146,10 +146,12 @@ impl Simulation {
         // and builds its pixels adapted to it, in one pass.
         let sorter = ParticleRenderer::new(&self.seeding, &self.illumination, g);
         let mut buckets = Vec::new();
+        let mut images = ImageCache::default();
         let n_bands = g.height.div_ceil(BAND_ROWS) as usize;
         bucket_by_band(
             &cloud.particles,
             &sorter,
+            &mut images,
             self.illumination.sheet(t0),
             n_bands,
             &mut buckets,
@@ -208,6 +210,7 @@ impl Simulation {
                 bucket_by_band(
                     &cloud.particles,
                     &sorter,
+                    &mut images,
                     sample.light,
                     n_bands,
                     &mut sample.buckets,
@@ -288,15 +291,17 @@ impl Simulation {
 fn bucket_by_band(
     particles: &[Particle],
     renderer: &ParticleRenderer,
+    images: &mut ImageCache,
     light: f64,
     bands: usize,
     buckets: &mut Vec<Vec<Spot>>,
 ) {
     buckets.resize_with(bands, Vec::new);
     buckets.iter_mut().for_each(Vec::clear);
+    images.entries.resize(particles.len(), None);
     let last = bands as i64 - 1;
-    for p in particles {
-        let Some(spot) = renderer.spot(p, light) else {
+    for (p, entry) in particles.iter().zip(&mut images.entries) {
+        let Some(spot) = ImageCache::spot(entry, renderer, p, light) else {
             continue;
         };
         let (y0, y1) = spot.rows();
@@ -304,6 +309,57 @@ fn bucket_by_band(
         let hi = (y1.max(0) / BAND_ROWS as i64).min(last);
         for b in lo..=hi {
             buckets[b as usize].push(spot);
+        }
+    }
+}
+
+/// The last image of each particle (by its index in the cloud) with what it was made from:
+/// the particle's identity, its out-of-plane position and the light factor. An image depends
+/// on the particle's position only through its centre, so while the rest is unchanged (a
+/// continuous sheet and no out-of-plane motion: every sample) the image is the last one
+/// moved, the same values [`ParticleRenderer::spot`] would compute again (its logarithm,
+/// square root, erf and divisions per particle and sample).
+#[derive(Default)]
+struct ImageCache {
+    entries: Vec<Option<CachedImage>>,
+}
+
+#[derive(Clone, Copy)]
+struct CachedImage {
+    id: u64,
+    z: f64,
+    light: f64,
+    spot: Option<Spot>,
+}
+
+impl ImageCache {
+    /// [`ParticleRenderer::spot`]`(p, light)`, from `entry` if it was made from the same
+    /// particle, out-of-plane position and light (compared bit for bit), else computed and
+    /// kept in `entry`.
+    fn spot(
+        entry: &mut Option<CachedImage>,
+        renderer: &ParticleRenderer,
+        p: &Particle,
+        light: f64,
+    ) -> Option<Spot> {
+        match entry {
+            Some(c)
+                if c.id == p.id
+                    && c.z.to_bits() == p.z.to_bits()
+                    && c.light.to_bits() == light.to_bits() =>
+            {
+                c.spot.map(|s| s.centred_at(p.x, p.y))
+            }
+            _ => {
+                let spot = renderer.spot(p, light);
+                *entry = Some(CachedImage {
+                    id: p.id,
+                    z: p.z,
+                    light,
+                    spot,
+                });
+                spot
+            }
         }
     }
 }
@@ -424,5 +480,56 @@ impl Band {
         }
         std::mem::swap(&mut self.lit, &mut self.touched);
         self.touched.clear();
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::{ImageCache, Particle, ParticleRenderer, SeedingParams};
+    use crate::event::Geometry;
+    use crate::sim::scene::IlluminationParams;
+
+    /// The cache gives what the renderer computes, whether the particle only moved (reused),
+    /// changed its out-of-plane position or the light (recomputed), or was replaced by a new
+    /// particle at the same index (recomputed), including images too dim to draw.
+    #[test]
+    fn cached_images_are_the_renderers() {
+        let seeding = SeedingParams::default();
+        let illumination = IlluminationParams::default();
+        let renderer = ParticleRenderer::new(&seeding, &illumination, Geometry::new(64, 64));
+        let mut p = Particle {
+            id: 7,
+            x: 10.0,
+            y: 20.0,
+            z: 0.0,
+            w: 0.0,
+            diameter: 2.5,
+            brightness: 5.0,
+        };
+        let mut entry = None;
+        let mut check = |p: &Particle, light: f64| {
+            let cached = ImageCache::spot(&mut entry, &renderer, p, light);
+            assert_eq!(cached, renderer.spot(p, light), "{p:?} at light {light}");
+        };
+        check(&p, 1.0);
+        p.x += 0.25;
+        p.y -= 0.1;
+        check(&p, 1.0);
+        check(&p, 0.5);
+        p.z = 3.0;
+        check(&p, 0.5);
+        check(&p, 0.0);
+        p.x += 1.0;
+        check(&p, 0.0);
+        check(&p, 1.0);
+        p = Particle {
+            id: 8,
+            diameter: 4.0,
+            brightness: 20.0,
+            ..p
+        };
+        check(&p, 1.0);
+        p.x -= 3.0;
+        check(&p, 1.0);
     }
 }
