@@ -1,7 +1,7 @@
 //! The readout: time order, refractory filter, bandwidth limit and 1 µs time stamps
 //! (sensor-model.md §2.5, §2.10, §2.11).
 
-use std::collections::HashMap;
+mod filter;
 
 use super::params::{SensorParams, TimestampMode};
 use super::response::clean;
@@ -12,7 +12,7 @@ use rayon::iter::{
     IndexedParallelIterator, IntoParallelIterator, IntoParallelRefIterator,
     IntoParallelRefMutIterator, ParallelIterator,
 };
-use rayon::slice::{ParallelSlice, ParallelSliceMut};
+use rayon::slice::ParallelSliceMut;
 
 /// What the readout did, and (after [`ReadoutReport::absorb`]) what the pixels did.
 #[derive(Debug, Clone, Default, PartialEq, Eq, serde::Serialize)]
@@ -42,13 +42,6 @@ impl ReadoutReport {
     }
 }
 
-/// Spacing tolerance of the refractory filter, µs: differences this close to the refractory
-/// period are rounding, not violations.
-const REFRACTORY_TOLERANCE_US: f64 = 1e-6;
-
-/// Largest pixel table the refractory filter allocates densely; larger sensors use a map.
-const DENSE_TABLE_LIMIT: usize = 1 << 24;
-
 /// Sort by time, enforce the refractory period across signal and noise events, apply the
 /// readout bandwidth limit, quantise to 1 µs, and return the events in time order.
 ///
@@ -77,10 +70,11 @@ pub fn read_out(events: Vec<SimEvent>, params: &SensorParams) -> (EventBuffer, R
 ///
 /// The work is spread over the threads: the events are put in order by a parallel bucket
 /// sort of packed keys ([`sorted_keys`]; one part is scattered by one thread), the
-/// refractory filter and the token bucket run in one pass over the keys (both go in time
-/// order, and the token bucket sees exactly the events the refractory filter keeps), and the
-/// output arrays are filled in parallel. The bucket starts full at the first event overall,
-/// which is also the first the refractory filter keeps (its pixel has no earlier event).
+/// refractory filter and the token bucket run over chunks of the keys in parallel, each
+/// chunk checked against the state the chunks before leave ([`filter::drops`]; the token
+/// bucket sees exactly the events the refractory filter keeps), and the output arrays are
+/// filled in parallel. The bucket starts full at the first event overall, which is also the
+/// first the refractory filter keeps (its pixel has no earlier event).
 pub fn read_out_parts(
     parts: &[&[SimEvent]],
     params: &SensorParams,
@@ -89,40 +83,21 @@ pub fn read_out_parts(
         events_in: parts.iter().map(|p| p.len() as u64).sum(),
         ..ReadoutReport::default()
     };
-    let mut keys = sorted_keys(parts);
+    let keys = sorted_keys(parts);
     report.dropped_invalid = report.events_in - keys.len() as u64;
 
-    let refractory = clean(params.refractory_us, 0.0, 1e12, 0.0);
-    let mut refractory_filter =
-        (refractory > 0.0 && !keys.is_empty()).then(|| RefractoryFilter::new(&keys, refractory));
-    let mut token_bucket = params
-        .bandwidth_ev_per_s
-        .filter(|r| *r > 0.0)
-        .zip(keys.first())
-        .map(|(rate, &first)| {
+    let filters = filter::Filters {
+        refractory: clean(params.refractory_us, 0.0, 1e12, 0.0),
+        bucket: params.bandwidth_ev_per_s.filter(|r| *r > 0.0).map(|rate| {
             let burst = clean(params.bandwidth_burst_events, 1.0, 1e12, 1.0);
-            TokenBucket::new(rate * 1e-6, burst, key_time(first))
-        });
-    if refractory_filter.is_some() || token_bucket.is_some() {
-        keys.retain(|&key| {
-            let t = key_time(key);
-            if let Some(filter) = &mut refractory_filter {
-                if !filter.pass(t, key_pixel(key)) {
-                    report.dropped_refractory += 1;
-                    return false;
-                }
-            }
-            if let Some(bucket) = &mut token_bucket {
-                if !bucket.pass(t) {
-                    report.dropped_bandwidth += 1;
-                    return false;
-                }
-            }
-            true
-        });
-    }
+            (rate * 1e-6, burst)
+        }),
+    };
+    let drops = filter::drops(&keys, filters);
+    report.dropped_refractory = drops.refractory;
+    report.dropped_bandwidth = drops.bandwidth;
 
-    let buffer = event_buffer(&keys, params.timestamp);
+    let buffer = event_buffer(&keys, &drops.indices, params.timestamp);
     report.events_out = buffer.len() as u64;
     (buffer, report)
 }
@@ -319,99 +294,13 @@ fn unordered_bits(key: u64) -> u64 {
     }
 }
 
-/// The refractory filter of [`read_out`], fed the events in time order: an event within
-/// `refractory` µs (less [`REFRACTORY_TOLERANCE_US`]) of the previous kept event of its
-/// pixel does not pass.
-struct RefractoryFilter {
-    limit: f64,
-    /// Time of the last kept event per pixel, in a dense table or, for a sensor too large
-    /// for one, a map.
-    last: PixelTable,
-}
-
-enum PixelTable {
-    Dense { width: usize, last: Vec<f64> },
-    Sparse(HashMap<(u16, u16), f64>),
-}
-
-impl RefractoryFilter {
-    /// A filter for the pixels of `keys` (packed events, [`pack`]).
-    fn new(keys: &[u128], refractory: f64) -> Self {
-        let (x_max, y_max) = keys
-            .par_iter()
-            .map(|&key| key_pixel(key))
-            .reduce(|| (0, 0), |a, b| (a.0.max(b.0), a.1.max(b.1)));
-        let (width, height) = (x_max as usize + 1, y_max as usize + 1);
-        let last = if width * height <= DENSE_TABLE_LIMIT {
-            PixelTable::Dense {
-                width,
-                last: vec![f64::NEG_INFINITY; width * height],
-            }
-        } else {
-            PixelTable::Sparse(HashMap::new())
-        };
-        RefractoryFilter {
-            limit: refractory - REFRACTORY_TOLERANCE_US,
-            last,
-        }
-    }
-
-    /// Whether the event at `t` of pixel `(x, y)` passes; if it does, it is the pixel's last.
-    #[inline]
-    fn pass(&mut self, t: f64, (x, y): (u16, u16)) -> bool {
-        let slot = match &mut self.last {
-            PixelTable::Dense { width, last } => &mut last[y as usize * *width + x as usize],
-            PixelTable::Sparse(map) => map.entry((x, y)).or_insert(f64::NEG_INFINITY),
-        };
-        if t - *slot < self.limit {
-            false
-        } else {
-            *slot = t;
-            true
-        }
-    }
-}
-
-/// The token bucket of [`read_out`], fed the events in time order: `rate` tokens per µs,
-/// depth `burst`, full at the first event.
-struct TokenBucket {
-    rate: f64,
-    burst: f64,
-    tokens: f64,
-    last: f64,
-}
-
-impl TokenBucket {
-    fn new(rate: f64, burst: f64, first: f64) -> Self {
-        TokenBucket {
-            rate,
-            burst,
-            tokens: burst,
-            last: first,
-        }
-    }
-
-    /// Whether an event at `t` finds a token (and takes it).
-    #[inline]
-    fn pass(&mut self, t: f64) -> bool {
-        self.tokens = (self.tokens + (t - self.last) * self.rate).min(self.burst);
-        self.last = t;
-        if self.tokens >= 1.0 - 1e-9 {
-            self.tokens -= 1.0;
-            true
-        } else {
-            false
-        }
-    }
-}
-
 /// Events per task when [`event_buffer`] fills its arrays.
 const BUFFER_CHUNK: usize = 1 << 16;
 
-/// The packed events `keys` as an event buffer, time stamps rounded or truncated to 1 µs;
-/// filled in parallel.
-fn event_buffer(keys: &[u128], timestamp: TimestampMode) -> EventBuffer {
-    let n = keys.len();
+/// The packed events `keys` but those at the indices `dropped` (ascending) as an event buffer,
+/// time stamps rounded or truncated to 1 µs; filled in parallel.
+fn event_buffer(keys: &[u128], dropped: &[usize], timestamp: TimestampMode) -> EventBuffer {
+    let n = keys.len() - dropped.len();
     let mut buffer = EventBuffer {
         t: vec![0; n],
         x: vec![0; n],
@@ -430,15 +319,41 @@ fn event_buffer(keys: &[u128], timestamp: TimestampMode) -> EventBuffer {
         .zip(buffer.x.par_chunks_mut(BUFFER_CHUNK))
         .zip(buffer.y.par_chunks_mut(BUFFER_CHUNK))
         .zip(buffer.p.par_chunks_mut(BUFFER_CHUNK))
-        .zip(keys.par_chunks(BUFFER_CHUNK))
-        .for_each(|((((t, x), y), p), keys)| {
-            for (k, &key) in keys.iter().enumerate() {
+        .enumerate()
+        .for_each(|(chunk, (((t, x), y), p))| {
+            // The chunk's first output is the kept key after `skipped` dropped ones.
+            let first = chunk * BUFFER_CHUNK;
+            let mut skipped = dropped_before_kept(dropped, first);
+            let mut i = first + skipped;
+            for k in 0..t.len() {
+                while dropped.get(skipped) == Some(&i) {
+                    skipped += 1;
+                    i += 1;
+                }
+                let key = keys[i];
                 t[k] = stamp(key_time(key));
                 (x[k], y[k]) = key_pixel(key);
                 p[k] = key as u8;
+                i += 1;
             }
         });
     buffer
+}
+
+/// How many of the `dropped` indices (ascending) come before the `kept`-th index not among
+/// them (counting from 0): `dropped[j]` does iff at most `kept` indices before it are kept,
+/// `dropped[j] − j ≤ kept`, which holds for a prefix of `j`.
+fn dropped_before_kept(dropped: &[usize], kept: usize) -> usize {
+    let (mut lo, mut hi) = (0, dropped.len());
+    while lo < hi {
+        let mid = (lo + hi) / 2;
+        if dropped[mid] - mid <= kept {
+            lo = mid + 1;
+        } else {
+            hi = mid;
+        }
+    }
+    lo
 }
 
 #[cfg(test)]
