@@ -50,6 +50,11 @@ pub(super) struct Drops {
 /// previous kept event of its pixel, then an event that finds the bucket empty. The bucket
 /// starts full at the first event the refractory filter keeps.
 pub(super) fn drops(keys: &[u128], filters: Filters) -> Drops {
+    drops_in_chunks(keys, filters, MIN_CHUNK)
+}
+
+/// [`drops`] with chunks of at least `min_chunk` events.
+fn drops_in_chunks(keys: &[u128], filters: Filters, min_chunk: usize) -> Drops {
     if keys.is_empty() || (filters.refractory <= 0.0 && filters.bucket.is_none()) {
         return Drops::default();
     }
@@ -62,13 +67,22 @@ pub(super) fn drops(keys: &[u128], filters: Filters) -> Drops {
     let limit = filters.refractory - REFRACTORY_TOLERANCE_US;
 
     let chunks = rayon::current_num_threads()
-        .min(keys.len() / MIN_CHUNK)
+        .min(keys.len() / min_chunk.max(1))
         .max(1);
     let size = keys.len().div_ceil(chunks);
-    let ranges: Vec<(usize, usize)> = (0..chunks)
+    let mut ranges: Vec<(usize, usize)> = (0..chunks)
         .map(|c| (c * size, ((c + 1) * size).min(keys.len())))
         .filter(|(a, b)| a < b)
         .collect();
+    // A refractory period longer than a chunk: one pass (the check would have to look back
+    // over more than the chunk before).
+    let long = filters.refractory > 0.0
+        && ranges
+            .windows(2)
+            .any(|w| key_time(keys[w[1].0]) - key_time(keys[w[0].0]) < limit);
+    if long {
+        ranges = vec![(0, keys.len())];
+    }
     let new_state = || ChunkState::new(width, table_size, filters);
     let mut outcomes: Vec<Outcome> = ranges
         .par_iter()
@@ -113,15 +127,17 @@ pub(super) fn drops(keys: &[u128], filters: Filters) -> Drops {
 
     let mut all = Drops::default();
     for outcome in outcomes {
-        all.refractory += outcome.refractory;
-        all.bandwidth += outcome.indices.len() as u64 - outcome.refractory;
-        all.indices.extend(outcome.indices);
+        all.refractory += outcome.refractory.len() as u64;
+        all.bandwidth += outcome.bandwidth.len() as u64;
+        all.indices
+            .extend(merge(&outcome.refractory, &outcome.bandwidth));
     }
     all
 }
 
-/// The kept events within `limit` before `keys[start]`'s time, as the time of each pixel's
-/// last one (from the final `outcomes` of the chunks before `start`).
+/// The events the refractory filter kept within `limit` before `keys[start]`'s time (whether
+/// or not the bucket then dropped them: they blind their pixel all the same), as the time of
+/// each pixel's last one (from the final `outcomes` of the chunks before `start`).
 fn recent_kept(
     keys: &[u128],
     start: usize,
@@ -129,7 +145,11 @@ fn recent_kept(
     outcomes: &[Outcome],
 ) -> HashMap<(u16, u16), f64> {
     let t_start = key_time(keys[start]);
-    let dropped = |i: usize| outcomes.iter().any(|o| o.indices.binary_search(&i).is_ok());
+    let dropped = |i: usize| {
+        outcomes
+            .iter()
+            .any(|o| o.refractory.binary_search(&i).is_ok())
+    };
     let mut recent = HashMap::new();
     for i in (0..start).rev() {
         let t = key_time(keys[i]);
@@ -143,6 +163,24 @@ fn recent_kept(
     recent
 }
 
+/// The union of two ascending lists of distinct indices, ascending.
+fn merge(a: &[usize], b: &[usize]) -> Vec<usize> {
+    let mut out = Vec::with_capacity(a.len() + b.len());
+    let (mut i, mut j) = (0, 0);
+    while i < a.len() && j < b.len() {
+        if a[i] < b[j] {
+            out.push(a[i]);
+            i += 1;
+        } else {
+            out.push(b[j]);
+            j += 1;
+        }
+    }
+    out.extend_from_slice(&a[i..]);
+    out.extend_from_slice(&b[j..]);
+    out
+}
+
 /// The filters' state while going through a chunk.
 struct ChunkState {
     refractory: Option<RefractoryFilter>,
@@ -152,10 +190,10 @@ struct ChunkState {
 
 /// What one chunk's filtering gave.
 struct Outcome {
-    /// Dropped events, ascending.
-    indices: Vec<usize>,
-    /// How many of them the refractory filter dropped.
-    refractory: u64,
+    /// Events the refractory filter dropped, ascending.
+    refractory: Vec<usize>,
+    /// Events the bucket dropped, ascending.
+    bandwidth: Vec<usize>,
     /// Time of the first kept event.
     first_kept: Option<f64>,
     /// The bucket after the chunk's last kept event.
@@ -177,8 +215,8 @@ impl ChunkState {
     /// Filter `keys[a..b]`.
     fn run(mut self, keys: &[u128], a: usize, b: usize) -> Outcome {
         let mut outcome = Outcome {
-            indices: Vec::new(),
-            refractory: 0,
+            refractory: Vec::new(),
+            bandwidth: Vec::new(),
             first_kept: None,
             bucket: None,
         };
@@ -186,8 +224,7 @@ impl ChunkState {
             let t = key_time(key);
             if let Some(filter) = &mut self.refractory {
                 if !filter.pass(t, key_pixel(key)) {
-                    outcome.indices.push(i);
-                    outcome.refractory += 1;
+                    outcome.refractory.push(i);
                     continue;
                 }
             }
@@ -197,7 +234,7 @@ impl ChunkState {
                     .bucket
                     .get_or_insert_with(|| TokenBucket::new(rate, burst, t));
                 if !bucket.pass(t) {
-                    outcome.indices.push(i);
+                    outcome.bandwidth.push(i);
                 }
             }
         }
@@ -308,9 +345,60 @@ impl TokenBucket {
 
 #[cfg(test)]
 mod tests {
-    use super::{drops, Filters, MIN_CHUNK};
+    use super::{drops, drops_in_chunks, Filters, MIN_CHUNK};
+    use crate::sim::rng::{Rng, Stream};
     use crate::sim::sensor::readout::pack;
     use crate::sim::sensor::SimEvent;
+
+    /// Small random recordings cut into chunks of 16 events (ties, few pixels, refractory
+    /// periods from none to longer than a chunk, buckets from none to one that runs dry at
+    /// once): the drops of one pass for 2–4 threads.
+    #[test]
+    fn random_small_chunks_give_the_drops_of_one_pass() {
+        let pools: Vec<_> = (1..=4)
+            .map(|threads| {
+                rayon::ThreadPoolBuilder::new()
+                    .num_threads(threads)
+                    .build()
+                    .unwrap()
+            })
+            .collect();
+        let mut rng = Rng::new(5, Stream::Temporal, 0);
+        for trial in 0..600 {
+            let n = 1 + (rng.next_u64() % 300) as usize;
+            let pixels = 1 + rng.next_u64() % 10;
+            let mut keys: Vec<u128> = (0..n)
+                .map(|_| {
+                    pack(&SimEvent {
+                        t_us: (rng.next_u64() % 200) as f64 * 0.5,
+                        x: (rng.next_u64() % pixels) as u16,
+                        y: 0,
+                        p: (rng.next_u64() % 2) as u8,
+                    })
+                })
+                .collect();
+            keys.sort_unstable();
+            keys.dedup();
+            let refractory = [0.0, 0.5, 1.0, 3.0, 20.0][trial % 5];
+            let bucket = [
+                None,
+                Some((0.5, 1.0)),
+                Some((2.0, 3.0)),
+                Some((f64::INFINITY, 1.0)),
+            ][(trial / 5) % 4];
+            let filters = Filters { refractory, bucket };
+            let one = pools[0].install(|| drops_in_chunks(&keys, filters, 16));
+            for pool in &pools[1..] {
+                let got = pool.install(|| drops_in_chunks(&keys, filters, 16));
+                assert_eq!(got.indices, one.indices, "trial {trial}: {filters:?}");
+                assert_eq!(
+                    (got.refractory, got.bandwidth),
+                    (one.refractory, one.bandwidth),
+                    "trial {trial}: {filters:?}"
+                );
+            }
+        }
+    }
 
     /// One pass over all events, as [`drops`] defines them.
     fn one_pass(keys: &[u128], filters: Filters) -> Vec<usize> {
@@ -366,6 +454,22 @@ mod tests {
                     bucket: Some((1.5, 100.0)),
                 },
             ),
+            // Both, the bucket running dry: events the bucket drops still blind their pixel.
+            (
+                keys(n, 1.0, 3, 1000),
+                Filters {
+                    refractory: 4.0,
+                    bucket: Some((0.2, 100.0)),
+                },
+            ),
+            // A refractory period longer than a chunk: one pass.
+            (
+                keys(n, 1.0, 3, 1000),
+                Filters {
+                    refractory: 1e5,
+                    bucket: None,
+                },
+            ),
             // A bucket that slowly runs dry and then drops every tenth event: never full.
             (
                 keys(n, 1.0, 1000, 997),
@@ -384,9 +488,11 @@ mod tests {
                     .build()
                     .unwrap();
                 let got = pool.install(|| drops(&keys, filters));
+                let first_difference = got.indices.iter().zip(&want).position(|(a, b)| a != b);
                 assert!(
                     got.indices == want,
-                    "{filters:?}, {threads} threads: {} drops, want {}",
+                    "{filters:?}, {threads} threads: {} drops, want {}; first difference at \
+                     drop {first_difference:?}",
                     got.indices.len(),
                     want.len()
                 );
