@@ -2,14 +2,16 @@
 //! contiguous chunks of the events in parallel and checked afterwards (sensor-model.md §2.5,
 //! §2.11).
 //!
-//! Both go in time order and carry state from one event to the next: the time of each pixel's
-//! last kept event, and the bucket's tokens. Each chunk but the first starts from the state
-//! they almost always have at its start: no pixel blinded by an event of an earlier chunk,
-//! and a full bucket. Whether that was so is checked in order once the chunk before is final:
-//! only pixels with a kept event within the refractory period before the chunk matter, and
-//! the bucket, refilled up to the chunk's first kept event, must be full. A chunk for which
-//! either fails is filtered again, on one thread, from its true state. The result is the same
-//! as one pass over all events, whatever the chunks.
+//! Both go in time order and carry state from one event to the next: the time of the last
+//! event of each pixel that the refractory filter kept (the bucket may still drop it; it
+//! blinds its pixel all the same), and the bucket's tokens. Each chunk but the first starts
+//! from the state they almost always have at its start: no pixel blinded by an event of an
+//! earlier chunk, and a full bucket. Whether that was so is checked in order once the chunk
+//! before is final: only pixels with such an event within the refractory period before the
+//! chunk matter, and the bucket, refilled up to the chunk's first kept event, must be full. A
+//! chunk for which either fails is filtered again, on one thread, from its true state; a
+//! refractory period longer than a chunk means one pass. The result is the same as one pass
+//! over all events, whatever the chunks and the number of threads.
 
 use std::collections::HashMap;
 
