@@ -38,6 +38,14 @@ pub(super) struct Filters {
     pub bucket: Option<(f64, f64)>,
 }
 
+impl Filters {
+    /// The smallest spacing, µs, that two kept events of a pixel may have: the refractory
+    /// period less [`REFRACTORY_TOLERANCE_US`].
+    fn limit(&self) -> f64 {
+        self.refractory - REFRACTORY_TOLERANCE_US
+    }
+}
+
 /// What [`drops`] found: the indices of the dropped events, ascending, and how many of them
 /// each filter dropped.
 #[derive(Debug, Default)]
@@ -66,7 +74,7 @@ fn drops_in_chunks(keys: &[u128], filters: Filters, min_chunk: usize) -> Drops {
         .reduce(|| (0, 0), |a, b| (a.0.max(b.0), a.1.max(b.1)));
     let width = x_max as usize + 1;
     let table_size = width * (y_max as usize + 1);
-    let limit = filters.refractory - REFRACTORY_TOLERANCE_US;
+    let limit = filters.limit();
 
     let chunks = rayon::current_num_threads()
         .min(keys.len() / min_chunk.max(1))
@@ -205,10 +213,9 @@ struct Outcome {
 impl ChunkState {
     /// No pixel blinded, and no bucket yet (it starts full at the first kept event).
     fn new(width: usize, table_size: usize, filters: Filters) -> Self {
-        let limit = filters.refractory - REFRACTORY_TOLERANCE_US;
         ChunkState {
             refractory: (filters.refractory > 0.0)
-                .then(|| RefractoryFilter::new(width, table_size, limit)),
+                .then(|| RefractoryFilter::new(width, table_size, filters.limit())),
             bucket_params: filters.bucket,
             bucket: None,
         }
