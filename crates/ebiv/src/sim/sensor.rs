@@ -33,7 +33,10 @@
 //! Typical use: one [`SensorBand`] per group of rows (run in parallel), `adapt` to the first
 //! frame, then per time step `advance` with the pixels whose irradiance changed, `noise` over
 //! the recording, and finally [`read_out_parts`] of all bands' events (add each band's
-//! [`SensorBand::counters`] to the report with [`ReadoutReport::absorb`]).
+//! [`SensorBand::counters`] to the report with [`ReadoutReport::absorb`]). A long recording
+//! can instead be read out while it is simulated: noise drawn window by window
+//! ([`SensorBand::noise_stream`]) and the events handed to a [`StreamingReadout`], which gives
+//! the same result with the memory of one window.
 
 mod active;
 mod band;
@@ -46,8 +49,9 @@ mod response;
 mod tests;
 
 pub use band::SensorBand;
+pub use noise::NoiseStream;
 pub use params::{SensorParams, TimestampMode};
-pub use readout::{read_out, read_out_parts, ReadoutReport};
+pub use readout::{read_out, read_out_parts, ReadoutReport, StreamingReadout};
 
 /// One simulated event with its exact time, before the readout quantises it.
 #[derive(Debug, Clone, Copy, PartialEq)]

@@ -5,12 +5,15 @@
 //! (and at every corner of a light pulse); between samples each pixel's irradiance varies
 //! linearly and the sensor finds exact threshold-crossing times. Bands of rows run in
 //! parallel; all randomness is per pixel or per particle, so the result does not depend on
-//! the number of threads.
+//! the number of threads. The events of each batch of samples are read out
+//! ([`StreamingReadout`]) while the bands simulate the next batch.
 
 use super::flow::Flow;
 use super::particles::{Particle, ParticleCloud, SeedingParams};
 use super::scene::{IlluminationParams, ParticleRenderer, Spot};
-use super::sensor::{read_out_parts, ReadoutReport, SensorBand, SensorParams, SimEvent};
+use super::sensor::{
+    NoiseStream, ReadoutReport, SensorBand, SensorParams, SimEvent, StreamingReadout,
+};
 use crate::error::{Error, Result};
 use crate::event::{EventBuffer, Geometry};
 use rayon::prelude::*;
@@ -75,6 +78,10 @@ pub struct SimOutput {
 /// Rows per band: small enough for both cores to stay busy, large enough to amortise.
 const BAND_ROWS: u32 = 48;
 
+/// Events this close before the end of a batch are read out with the next batch, µs: a
+/// margin for rounding (see [`Simulation::run`]).
+const READOUT_HOLD_US: f64 = 1.0;
+
 /// Samples each band processes per parallel task.
 const SAMPLES_PER_BATCH: usize = 64;
 
@@ -90,6 +97,9 @@ struct Band {
     /// Pixels with particle light at the previous sample (band indices).
     lit: Vec<u32>,
     touched: Vec<u32>,
+    /// Background activity, drawn batch by batch.
+    noise: NoiseStream,
+    /// Events of the batch being simulated.
     events: Vec<SimEvent>,
 }
 
@@ -219,11 +229,20 @@ impl Simulation {
             }
             used
         };
+        // The events of each batch are read out while the bands simulate the next one: all
+        // events found later lie at or after the batch's end (an event is never earlier than
+        // the threshold crossing that causes it, nor a crossing than the step that finds it),
+        // so those before it are final. `READOUT_HOLD_US` before the end leaves a margin
+        // for the rounding of a sleeping pixel's wake-up time.
+        let mut readout = StreamingReadout::new(&self.sensor, g);
+        let mut window: Vec<Vec<SimEvent>> = vec![Vec::new(); bands.len()];
+        let mut window_end = None;
         let mut current: Vec<Sample> = Vec::new();
         let mut next: Vec<Sample> = Vec::new();
         let mut used = fill(&mut current);
         while used > 0 {
             let batch = &current[..used];
+            let batch_end = batch[used - 1].t;
             let ((), next_used) = rayon::join(
                 || {
                     bands.par_iter_mut().enumerate().for_each_init(
@@ -241,20 +260,28 @@ impl Simulation {
                                 );
                                 band.sensor.advance_marked(&mut band.events);
                             }
+                            band.sensor
+                                .noise_until(&mut band.noise, batch_end, &mut band.events);
                         },
                     )
                 },
-                || fill(&mut next),
+                || {
+                    if let Some(end) = window_end {
+                        readout.read_until(&mut window, end - READOUT_HOLD_US);
+                    }
+                    fill(&mut next)
+                },
             );
-            progress((batch[used - 1].t - t0) / (t_end - t0));
+            for (band, events) in bands.iter_mut().zip(&mut window) {
+                std::mem::swap(&mut band.events, events);
+            }
+            window_end = Some(batch_end);
+            progress((batch_end - t0) / (t_end - t0));
             std::mem::swap(&mut current, &mut next);
             used = next_used;
         }
-        bands
-            .par_iter_mut()
-            .for_each(|band| band.sensor.noise(t0, t_end, &mut band.events));
-        let parts: Vec<&[SimEvent]> = bands.iter().map(|b| b.events.as_slice()).collect();
-        let (events, mut readout) = read_out_parts(&parts, &self.sensor);
+        readout.read_until(&mut window, f64::INFINITY);
+        let (events, mut readout) = readout.finish();
         for band in &bands {
             readout.absorb(&band.sensor.counters());
         }
@@ -401,9 +428,11 @@ impl Band {
             acc[k] = 0.0;
             mark[k] = false;
         }
-        let sensor = SensorBand::new_adapted(g, rows.clone(), &sim.sensor, sim.seed, t0, |x, y| {
-            value[(y - rows.start) as usize * w + x as usize]
-        });
+        let mut sensor =
+            SensorBand::new_adapted(g, rows.clone(), &sim.sensor, sim.seed, t0, |x, y| {
+                value[(y - rows.start) as usize * w + x as usize]
+            });
+        let noise = sensor.noise_stream(t0);
         Band {
             rows,
             sensor,
@@ -412,6 +441,7 @@ impl Band {
             mark,
             lit,
             touched: Vec::new(),
+            noise,
             events: Vec::new(),
         }
     }

@@ -30,34 +30,78 @@ impl SensorBand {
     /// Leak and shot noise are drawn per row (exact thinning of a bounding Poisson process),
     /// hot pixels per pixel; rows and pixels index the generators, so bands do not matter.
     /// Successive calls draw from fresh generators; all bands must see the same calls.
+    /// [`SensorBand::noise_stream`] draws the same events window by window.
     pub fn noise(&mut self, t0_us: f64, t1_us: f64, out: &mut Vec<SimEvent>) {
+        let mut stream = self.noise_stream(t0_us);
+        if t1_us > t0_us {
+            self.noise_until(&mut stream, t1_us, out);
+        }
+    }
+
+    /// The background activity of this band from `t0_us` on, to be drawn window by window
+    /// with [`SensorBand::noise_until`]: up to any time, the events [`SensorBand::noise`]
+    /// gives from `t0_us` to that time, each candidate decided with the pixel's irradiance
+    /// when the window that holds it is drawn (`noise` decides all with the irradiance at
+    /// its call). Counts as a call of `noise` (fresh generators). A start that is not finite
+    /// gives no events.
+    pub fn noise_stream(&mut self, t0_us: f64) -> NoiseStream {
         let call = self.noise_calls;
         self.noise_calls += 1;
-        if !(t0_us.is_finite() && t1_us.is_finite() && t1_us > t0_us) {
+        let width = self.geometry.width as usize;
+        let start = |rate: f64, seed: u64, index: u64| {
+            let mut rng = Rng::new(seed, Stream::Temporal, (call << 32) | index);
+            let next = if t0_us.is_finite() && rate > 0.0 && width > 0 {
+                t0_us + rng.exponential(rate)
+            } else {
+                f64::NAN
+            };
+            Poisson { rng, next }
+        };
+        let noise_seed = sub_seed(self.seed, TAG_NOISE);
+        let rows = self
+            .row_noise_bound
+            .iter()
+            .enumerate()
+            .map(|(row, &bound)| {
+                let y = self.rows.start as u64 + row as u64;
+                // NaN fails the rate test: no events.
+                start(bound * width as f64, noise_seed, y)
+            })
+            .collect();
+        let hot_rate = clean(self.params.hot_pixel_rate_hz, 0.0, 1e6, 0.0) * PER_US;
+        let hot_seed = sub_seed(self.seed, TAG_HOT);
+        let first = self.rows.start as u64 * width as u64;
+        let hot = self
+            .hot
+            .iter()
+            .map(|&local| start(hot_rate, hot_seed, first + local as u64))
+            .collect();
+        NoiseStream { rows, hot }
+    }
+
+    /// Append the events of `stream` before `t1_us` not drawn yet (see
+    /// [`SensorBand::noise_stream`]); a `t1_us` that is not finite draws nothing.
+    pub fn noise_until(&mut self, stream: &mut NoiseStream, t1_us: f64, out: &mut Vec<SimEvent>) {
+        if !t1_us.is_finite() {
             return;
         }
         let leak = clean(self.params.leak_rate_hz, 0.0, 1e6, 0.0) * PER_US;
         let shot = clean(self.params.shot_noise_rate_hz, 0.0, 1e6, 0.0) * PER_US;
         let width = self.geometry.width as usize;
-        let noise_seed = sub_seed(self.seed, TAG_NOISE);
         let (theta_on_nominal, theta_off_nominal) =
             (self.response.theta_on, self.response.theta_off);
 
-        for (row_index, &bound) in self.row_noise_bound.iter().enumerate() {
-            if bound.is_nan() || bound <= 0.0 || width == 0 {
-                continue;
-            }
-            let y = self.rows.start + row_index as u32;
+        for (row_index, process) in stream.rows.iter_mut().enumerate() {
+            let bound = self.row_noise_bound[row_index];
             let total = bound * width as f64;
-            let mut rng = Rng::new(noise_seed, Stream::Temporal, (call << 32) | y as u64);
-            let mut t = t0_us;
-            loop {
-                t += rng.exponential(total);
-                if t.is_nan() || t >= t1_us {
-                    break;
-                }
+            let y = self.rows.start + row_index as u32;
+            // `next` is NaN for a row without noise: the comparison fails.
+            while process.next < t1_us {
+                let t = process.next;
+                let rng = &mut process.rng;
                 let x = ((rng.uniform() * width as f64) as usize).min(width - 1);
                 let mut u = rng.uniform() * bound;
+                process.next = t + rng.exponential(total);
                 let i = row_index * width + x;
                 let factor = self.noise_factor.get(i).map_or(1.0, |&f| f as f64);
                 let rate_leak = leak * factor;
@@ -94,35 +138,41 @@ impl SensorBand {
         }
 
         let hot_rate = clean(self.params.hot_pixel_rate_hz, 0.0, 1e6, 0.0) * PER_US;
-        if hot_rate > 0.0 && width > 0 {
-            let hot_seed = sub_seed(self.seed, TAG_HOT);
-            let first = self.rows.start as u64 * width as u64;
-            for &local in &self.hot {
-                let mut rng = Rng::new(
-                    hot_seed,
-                    Stream::Temporal,
-                    (call << 32) | (first + local as u64),
-                );
-                let x = local as usize % width;
-                let y = self.rows.start as usize + local as usize / width;
-                let mut t = t0_us;
-                loop {
-                    t += rng.exponential(hot_rate);
-                    if t.is_nan() || t >= t1_us {
-                        break;
-                    }
-                    let p = (rng.uniform() < 0.5) as u8;
-                    self.counters.hot += 1;
-                    out.push(SimEvent {
-                        t_us: t,
-                        x: x as u16,
-                        y: y as u16,
-                        p,
-                    });
-                }
+        for (&local, process) in self.hot.iter().zip(&mut stream.hot) {
+            let x = local as usize % width;
+            let y = self.rows.start as usize + local as usize / width;
+            while process.next < t1_us {
+                let t = process.next;
+                let p = (process.rng.uniform() < 0.5) as u8;
+                process.next = t + process.rng.exponential(hot_rate);
+                self.counters.hot += 1;
+                out.push(SimEvent {
+                    t_us: t,
+                    x: x as u16,
+                    y: y as u16,
+                    p,
+                });
             }
         }
     }
+}
+
+/// The Poisson processes of a band's background activity, between windows
+/// ([`SensorBand::noise_stream`]).
+#[derive(Debug, Clone)]
+pub struct NoiseStream {
+    /// Leak and shot noise, per row of the band.
+    rows: Vec<Poisson>,
+    /// Per hot pixel of the band.
+    hot: Vec<Poisson>,
+}
+
+/// One Poisson process: its generator and its next event time, drawn but not yet reached
+/// (NaN: none).
+#[derive(Debug, Clone)]
+struct Poisson {
+    rng: Rng,
+    next: f64,
 }
 
 /// Per row, an upper bound (events/µs) of any pixel's leak + shot-noise rate, for the

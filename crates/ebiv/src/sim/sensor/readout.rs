@@ -2,6 +2,9 @@
 //! (sensor-model.md §2.5, §2.10, §2.11).
 
 mod filter;
+mod stream;
+
+pub use stream::StreamingReadout;
 
 use super::params::{SensorParams, TimestampMode};
 use super::response::clean;
@@ -86,20 +89,34 @@ pub fn read_out_parts(
     let keys = sorted_keys(parts);
     report.dropped_invalid = report.events_in - keys.len() as u64;
 
-    let filters = filter::Filters {
-        refractory: clean(params.refractory_us, 0.0, 1e12, 0.0),
-        bucket: params.bandwidth_ev_per_s.filter(|r| *r > 0.0).map(|rate| {
-            let burst = clean(params.bandwidth_burst_events, 1.0, 1e12, 1.0);
-            (rate * 1e-6, burst)
-        }),
-    };
-    let drops = filter::drops(&keys, filters);
+    let drops = filter::drops(&keys, readout_filters(params));
     report.dropped_refractory = drops.refractory;
     report.dropped_bandwidth = drops.bandwidth;
 
     let buffer = event_buffer(&keys, &drops.indices, params.timestamp);
     report.events_out = buffer.len() as u64;
     (buffer, report)
+}
+
+/// The refractory filter and token bucket `params` ask for.
+fn readout_filters(params: &SensorParams) -> filter::Filters {
+    filter::Filters {
+        refractory: clean(params.refractory_us, 0.0, 1e12, 0.0),
+        bucket: params.bandwidth_ev_per_s.filter(|r| *r > 0.0).map(|rate| {
+            let burst = clean(params.bandwidth_burst_events, 1.0, 1e12, 1.0);
+            (rate * 1e-6, burst)
+        }),
+    }
+}
+
+/// The 1 µs time stamp of exact time `t`, rounded or truncated.
+#[inline]
+fn stamp(timestamp: TimestampMode, t: f64) -> i64 {
+    match timestamp {
+        TimestampMode::Round => t.round() as i64,
+        // `floor_i64` is `floor() as i64` without a library call per event.
+        TimestampMode::Truncate => floor_i64(t),
+    }
 }
 
 /// The events of `part` the readout takes at all: a finite time and a polarity of 0 or 1.
@@ -308,11 +325,6 @@ fn event_buffer(keys: &[u128], dropped: &[usize], timestamp: TimestampMode) -> E
         p: vec![0; n],
         triggers: Vec::new(),
     };
-    let stamp = |t: f64| match timestamp {
-        TimestampMode::Round => t.round() as i64,
-        // `floor_i64` is `floor() as i64` without a library call per event.
-        TimestampMode::Truncate => floor_i64(t),
-    };
     buffer
         .t
         .par_chunks_mut(BUFFER_CHUNK)
@@ -331,7 +343,7 @@ fn event_buffer(keys: &[u128], dropped: &[usize], timestamp: TimestampMode) -> E
                     i += 1;
                 }
                 let key = keys[i];
-                t[k] = stamp(key_time(key));
+                t[k] = stamp(timestamp, key_time(key));
                 (x[k], y[k]) = key_pixel(key);
                 p[k] = key as u8;
                 i += 1;

@@ -145,6 +145,32 @@ fn drops_in_chunks(keys: &[u128], filters: Filters, min_chunk: usize) -> Drops {
     all
 }
 
+/// The filters' state carried from one window of a stream of sorted events to the next
+/// ([`super::stream`]): each window is filtered as the next stretch of one pass.
+pub(super) struct StreamFilter(ChunkState);
+
+impl StreamFilter {
+    /// No pixel of a `width` × `height` sensor blinded, and the bucket full at the first
+    /// kept event.
+    pub(super) fn new(width: usize, height: usize, filters: Filters) -> Self {
+        StreamFilter(ChunkState::new(width, width * height, filters))
+    }
+
+    /// The drops among `keys` (packed, valid, sorted, and none before the keys of earlier
+    /// calls), with indices into `keys`.
+    pub(super) fn drops(&mut self, keys: &[u128]) -> Drops {
+        if self.0.refractory.is_none() && self.0.bucket_params.is_none() {
+            return Drops::default();
+        }
+        let outcome = self.0.run(keys, 0, keys.len());
+        Drops {
+            indices: merge(&outcome.refractory, &outcome.bandwidth),
+            refractory: outcome.refractory.len() as u64,
+            bandwidth: outcome.bandwidth.len() as u64,
+        }
+    }
+}
+
 /// The events the refractory filter kept within `limit` before `keys[start]`'s time (whether
 /// or not the bucket then dropped them: they blind their pixel all the same), as the time of
 /// each pixel's last one (from the final `outcomes` of the chunks before `start`).
@@ -221,8 +247,8 @@ impl ChunkState {
         }
     }
 
-    /// Filter `keys[a..b]`.
-    fn run(mut self, keys: &[u128], a: usize, b: usize) -> Outcome {
+    /// Filter `keys[a..b]`, carrying the state on.
+    fn run(&mut self, keys: &[u128], a: usize, b: usize) -> Outcome {
         let mut outcome = Outcome {
             refractory: Vec::new(),
             bandwidth: Vec::new(),

@@ -177,3 +177,43 @@ fn same_seed_gives_the_same_events_for_any_band_split() {
     let same = SensorBand::new(g, 0..40, &p, 1234);
     assert_ne!(other.thresholds(3, 3), same.thresholds(3, 3));
 }
+
+/// Background activity drawn window by window is that of one call over the whole time when
+/// the irradiance does not change: the same events and counters, whatever the windows.
+#[test]
+fn noise_drawn_in_windows_is_noise_drawn_at_once() {
+    let mut p = SensorParams::gen4();
+    p.leak_rate_hz = 300.0;
+    p.shot_noise_rate_hz = 1000.0;
+    p.hot_pixel_fraction = 0.02;
+    let g = Geometry::new(30, 20);
+    let sorted = |mut v: Vec<SimEvent>| {
+        v.sort_by(|a, b| {
+            a.t_us
+                .total_cmp(&b.t_us)
+                .then((a.y, a.x, a.p).cmp(&(b.y, b.x, b.p)))
+        });
+        v
+    };
+    let mut once = SensorBand::new(g, 3..17, &p, 99);
+    once.adapt(0.0, |x, _| 1.0 + x as f32);
+    let mut want = Vec::new();
+    once.noise(-50.0, 2e5, &mut want);
+    assert!(want.len() > 1_000, "{}", want.len());
+    let cut_sets: [Vec<f64>; 3] = [
+        vec![],
+        vec![-50.0, 0.0, 1.0, 1.0, 7e4],
+        vec![1e3, 5e4, 1.5e5, 3e5],
+    ];
+    for cuts in cut_sets {
+        let mut band = SensorBand::new(g, 3..17, &p, 99);
+        band.adapt(0.0, |x, _| 1.0 + x as f32);
+        let mut stream = band.noise_stream(-50.0);
+        let mut got = Vec::new();
+        for &cut in cuts.iter().chain(&[2e5]) {
+            band.noise_until(&mut stream, cut.min(2e5), &mut got);
+        }
+        assert_eq!(sorted(got), sorted(want.clone()), "cuts {cuts:?}");
+        assert_eq!(band.counters(), once.counters(), "cuts {cuts:?}");
+    }
+}
