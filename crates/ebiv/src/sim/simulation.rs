@@ -76,7 +76,7 @@ pub struct SimOutput {
 }
 
 /// Rows per band: small enough for both cores to stay busy, large enough to amortise.
-const BAND_ROWS: u32 = 48;
+const BAND_ROWS: u32 = 60;
 
 /// Events this close before the end of a batch are read out with the next batch, µs: a
 /// margin for rounding (see [`Simulation::run`]).
