@@ -21,6 +21,22 @@ pub(crate) fn avx2_available() -> bool {
     false
 }
 
+/// Ask the processor to bring the cache line of `value` into its caches, ahead of a use
+/// whose address it could not foresee (an element of a table indexed by data). A hint only:
+/// it changes no value, and does nothing off x86-64.
+#[inline(always)]
+pub(crate) fn prefetch<T>(value: &T) {
+    #[cfg(target_arch = "x86_64")]
+    {
+        use std::arch::x86_64::{_mm_prefetch, _MM_HINT_T0};
+        // SAFETY: a prefetch reads nothing the program sees and cannot fault; the address is
+        // that of a live value anyway.
+        unsafe { _mm_prefetch::<_MM_HINT_T0>((value as *const T).cast()) };
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    let _ = value;
+}
+
 /// Four `f32` lanes: one SSE register on x86-64 (every x86-64 processor has SSE2), an array
 /// elsewhere. For kernels whose lane arrays the compiler's vectoriser packs the wrong way
 /// (across the accumulators instead of along the lanes, with a shuffle per value): written

@@ -351,8 +351,16 @@ impl SensorBand {
         let ramps = &mut self.ramps;
         ramps.clear();
         let dt = tb - ta;
-        let mut batches = self.changed.chunks_exact(PREPARE_LANES);
-        for batch in &mut batches {
+        let changed = &self.changed;
+        let mut batches = changed.chunks_exact(PREPARE_LANES);
+        for (b, batch) in (&mut batches).enumerate() {
+            // The pixels of the batch after next: each is a cache miss.
+            let ahead = (b + 2) * PREPARE_LANES;
+            for &(local, _) in changed.get(ahead..ahead + PREPARE_LANES).unwrap_or(&[]) {
+                if let Some(px) = pixels.get(local as usize) {
+                    crate::simd::prefetch(px);
+                }
+            }
             let old: [f32; PREPARE_LANES] =
                 std::array::from_fn(|k| pixels[batch[k].0 as usize].irr);
             let new: [f32; PREPARE_LANES] = std::array::from_fn(|k| batch[k].1);

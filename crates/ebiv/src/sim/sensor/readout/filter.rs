@@ -27,6 +27,9 @@ const REFRACTORY_TOLERANCE_US: f64 = 1e-6;
 /// map.
 const DENSE_TABLE_LIMIT: usize = 1 << 24;
 
+/// How many events ahead [`ChunkState::run`] prefetches the refractory filter's table.
+const PREFETCH_AHEAD: usize = 16;
+
 /// Fewest events per chunk.
 const MIN_CHUNK: usize = 1 << 16;
 
@@ -258,6 +261,9 @@ impl ChunkState {
         for (i, &key) in keys.iter().enumerate().take(b).skip(a) {
             let t = key_time(key);
             if let Some(filter) = &mut self.refractory {
+                if let Some(&ahead) = keys[..b].get(i + PREFETCH_AHEAD) {
+                    filter.prefetch(key_pixel(ahead));
+                }
                 if !filter.pass(t, key_pixel(key)) {
                     outcome.refractory.push(i);
                     continue;
@@ -310,6 +316,18 @@ impl RefractoryFilter {
         match &mut self.last {
             PixelTable::Dense { width, last } => &mut last[y as usize * *width + x as usize],
             PixelTable::Sparse(map) => map.entry((x, y)).or_insert(f64::NEG_INFINITY),
+        }
+    }
+
+    /// Ask the processor to fetch the table entry of pixel `(x, y)` into the cache: the
+    /// events' pixels are scattered over the sensor, so each entry is a cache miss that the
+    /// processor would otherwise wait for.
+    #[inline]
+    fn prefetch(&self, (x, y): (u16, u16)) {
+        if let PixelTable::Dense { width, last } = &self.last {
+            if let Some(slot) = last.get(y as usize * *width + x as usize) {
+                crate::simd::prefetch(slot);
+            }
         }
     }
 
