@@ -166,19 +166,6 @@ impl Simulation {
             n_bands,
             &mut buckets,
         );
-        let mut bands: Vec<Band> = buckets
-            .par_iter()
-            .enumerate()
-            .map_init(
-                || ParticleRenderer::new(&self.seeding, &self.illumination, g),
-                |renderer, (b, bucket)| {
-                    let b = b as u32;
-                    let rows = b * BAND_ROWS..((b + 1) * BAND_ROWS).min(g.height);
-                    Band::start(self, rows, renderer, bucket, t0)
-                },
-            )
-            .collect();
-
         let mut tracks = Vec::new();
         let mut next_track = t0;
         let mut t = t0;
@@ -234,12 +221,28 @@ impl Simulation {
         // the threshold crossing that causes it, nor a crossing than the step that finds it),
         // so those before it are final. `READOUT_HOLD_US` before the end leaves a margin
         // for the rounding of a sleeping pixel's wake-up time.
-        let mut readout = StreamingReadout::new(&self.sensor, g);
-        let mut window: Vec<Vec<SimEvent>> = vec![Vec::new(); bands.len()];
-        let mut window_end = None;
+        // The pixels are set up while the first batch's particle motion is computed.
         let mut current: Vec<Sample> = Vec::new();
         let mut next: Vec<Sample> = Vec::new();
-        let mut used = fill(&mut current);
+        let (mut bands, (mut used, mut readout)) = rayon::join(
+            || {
+                buckets
+                    .par_iter()
+                    .enumerate()
+                    .map_init(
+                        || ParticleRenderer::new(&self.seeding, &self.illumination, g),
+                        |renderer, (b, bucket)| {
+                            let b = b as u32;
+                            let rows = b * BAND_ROWS..((b + 1) * BAND_ROWS).min(g.height);
+                            Band::start(self, rows, renderer, bucket, t0)
+                        },
+                    )
+                    .collect::<Vec<Band>>()
+            },
+            || (fill(&mut current), StreamingReadout::new(&self.sensor, g)),
+        );
+        let mut window: Vec<Vec<SimEvent>> = vec![Vec::new(); bands.len()];
+        let mut window_end = None;
         while used > 0 {
             let batch = &current[..used];
             let batch_end = batch[used - 1].t;
