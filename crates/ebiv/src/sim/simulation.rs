@@ -79,7 +79,8 @@ pub struct SimOutput {
 const BAND_ROWS: u32 = 60;
 
 /// Events this close before the end of a batch are read out with the next batch, µs: a
-/// margin for rounding (see [`Simulation::run`]).
+/// margin on the argument that no later event precedes the batch's end (see
+/// [`Simulation::run`]).
 const READOUT_HOLD_US: f64 = 1.0;
 
 /// Samples each band processes per parallel task.
@@ -218,9 +219,11 @@ impl Simulation {
         };
         // The events of each batch are read out while the bands simulate the next one: all
         // events found later lie at or after the batch's end (an event is never earlier than
-        // the threshold crossing that causes it, nor a crossing than the step that finds it),
-        // so those before it are final. `READOUT_HOLD_US` before the end leaves a margin
-        // for the rounding of a sleeping pixel's wake-up time.
+        // the threshold crossing that causes it, nor a crossing than the step that finds it;
+        // a sleeping pixel's crossing is computed as its wake-up time was), so those before
+        // it are final. The cutoff `READOUT_HOLD_US` before the end is a margin on that
+        // argument; an event that broke it would be read out at the cutoff (counted by
+        // `late_events`, asserted zero in tests).
         // The pixels are set up while the first batch's particle motion is computed.
         let mut current: Vec<Sample> = Vec::new();
         let mut next: Vec<Sample> = Vec::new();
@@ -283,8 +286,12 @@ impl Simulation {
             std::mem::swap(&mut current, &mut next);
             used = next_used;
         }
-        readout.read_until(&mut window, f64::INFINITY);
-        let (events, mut readout) = readout.finish();
+        debug_assert_eq!(
+            readout.late_events(),
+            0,
+            "an event came after its batch's cutoff"
+        );
+        let (events, mut readout) = readout.finish(&mut window);
         for band in &bands {
             readout.absorb(&band.sensor.counters());
         }

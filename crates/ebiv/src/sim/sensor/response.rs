@@ -473,9 +473,9 @@ mod tests {
 
     /// On random low-pass responses to linear inputs (rising, falling, with and without an
     /// extremum inside the step), the crossing times agree with bisection to 1e-6 µs, and
-    /// the inverse Hermite start of the root finder is within 1e-3 of the step's length
-    /// of them on the pieces it takes (it falls back to the linear interpolation at an
-    /// extremum).
+    /// the inverse Hermite start of the root finder stays in the bracket and, on the pieces
+    /// where it does not fall back to the linear interpolation (an end at an extremum), its
+    /// mean error is under 0.35 of the linear start's.
     #[test]
     fn crossing_times_agree_with_bisection_and_the_start_is_close() {
         let mut next = xorshift(0xC0FF_EE11);
@@ -507,14 +507,14 @@ mod tests {
                 assert!((got - want).abs() < 1e-6, "{curve:?}: {got} vs {want}");
                 let start = curve.inverse_hermite(level, s0, s1, l0, l1);
                 let linear = s0 + (level - l0) / (l1 - l0) * (s1 - s0);
+                assert!(
+                    start >= s0 && start <= s1,
+                    "{curve:?}: start {start} outside [{s0}, {s1}]"
+                );
                 if start != linear {
                     hermite_starts += 1;
                     hermite_error += (start - want).abs();
                     linear_error += (linear - want).abs();
-                    assert!(
-                        start >= s0 && start <= s1,
-                        "{curve:?}: start {start} outside [{s0}, {s1}]"
-                    );
                 }
             }
         }

@@ -25,8 +25,10 @@ const EVENTS_PER_BUCKET: usize = 16;
 /// * an event that breaks the promise (handed in after a cutoff above its time) is read out
 ///   at the time of the last cutoff, as if it had arrived just in time.
 ///
-/// Memory is that of the output and of one window, not of the whole recording's exact
-/// events.
+/// Memory is that of the output, of one window and of the events held for later windows, not
+/// of the whole recording's exact events; the refractory filter keeps one time per pixel of
+/// the sensor. Events held for many windows are looked at again in each (a cost only when
+/// they are handed in far ahead of their cutoff).
 pub struct StreamingReadout {
     geometry: Geometry,
     timestamp: TimestampMode,
@@ -73,8 +75,20 @@ impl StreamingReadout {
     }
 
     /// Hand in the events of `parts` (emptied; their capacity is kept) and read out every
-    /// event before `cutoff` (µs; not finite or not above the last cutoff: the last cutoff).
+    /// event before `cutoff` (µs; not finite or not above the last cutoff: the last cutoff,
+    /// so that the events are only handed in).
     pub fn read_until(&mut self, parts: &mut [Vec<SimEvent>], cutoff: f64) {
+        let cutoff = if cutoff.is_finite() {
+            cutoff
+        } else {
+            self.done_until
+        };
+        self.read_window(parts, cutoff);
+    }
+
+    /// [`StreamingReadout::read_until`] for any cutoff above the last; +∞ reads out every
+    /// event.
+    fn read_window(&mut self, parts: &mut [Vec<SimEvent>], cutoff: f64) {
         let start = self.done_until;
         let cutoff = if cutoff > start { cutoff } else { start };
         let (width, height) = (self.geometry.width, self.geometry.height);
@@ -200,9 +214,10 @@ impl StreamingReadout {
         self.late
     }
 
-    /// Read out every event still held, and return the events in time order with the report.
-    pub fn finish(mut self) -> (EventBuffer, ReadoutReport) {
-        self.read_until(&mut [], f64::INFINITY);
+    /// Hand in the events of `parts` and read out every event handed in and not yet read
+    /// out; return all events in time order with the report.
+    pub fn finish(mut self, parts: &mut [Vec<SimEvent>]) -> (EventBuffer, ReadoutReport) {
+        self.read_window(parts, f64::INFINITY);
         self.report.events_out = self.out.len() as u64;
         (self.out, self.report)
     }

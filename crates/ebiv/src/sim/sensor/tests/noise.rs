@@ -11,6 +11,16 @@ fn assert_poisson(observed: usize, expected: f64, what: &str) {
     );
 }
 
+/// `events` in the readout's order: time, then row, column, polarity.
+fn sorted_events(mut events: Vec<SimEvent>) -> Vec<SimEvent> {
+    events.sort_by(|a, b| {
+        a.t_us
+            .total_cmp(&b.t_us)
+            .then((a.y, a.x, a.p).cmp(&(b.y, b.x, b.p)))
+    });
+    events
+}
+
 #[test]
 fn static_scene_gives_only_noise_at_the_configured_rates() {
     let mut p = SensorParams::gen4();
@@ -162,15 +172,7 @@ fn same_seed_gives_the_same_events_for_any_band_split() {
     assert_eq!(a, b);
     assert_eq!(a, c);
     assert_eq!(ra, rb);
-    let sorted = |mut v: Vec<SimEvent>| {
-        v.sort_by(|a, b| {
-            a.t_us
-                .total_cmp(&b.t_us)
-                .then((a.y, a.x, a.p).cmp(&(b.y, b.x, b.p)))
-        });
-        v
-    };
-    assert_eq!(sorted(one), sorted(many));
+    assert_eq!(sorted_events(one), sorted_events(many));
     // A different seed gives different events.
     let g = Geometry::new(48, 40);
     let other = SensorBand::new(g, 0..40, &p, 1235);
@@ -187,14 +189,6 @@ fn noise_drawn_in_windows_is_noise_drawn_at_once() {
     p.shot_noise_rate_hz = 1000.0;
     p.hot_pixel_fraction = 0.02;
     let g = Geometry::new(30, 20);
-    let sorted = |mut v: Vec<SimEvent>| {
-        v.sort_by(|a, b| {
-            a.t_us
-                .total_cmp(&b.t_us)
-                .then((a.y, a.x, a.p).cmp(&(b.y, b.x, b.p)))
-        });
-        v
-    };
     let mut once = SensorBand::new(g, 3..17, &p, 99);
     once.adapt(0.0, |x, _| 1.0 + x as f32);
     let mut want = Vec::new();
@@ -213,7 +207,11 @@ fn noise_drawn_in_windows_is_noise_drawn_at_once() {
         for &cut in cuts.iter().chain(&[2e5]) {
             band.noise_until(&mut stream, cut.min(2e5), &mut got);
         }
-        assert_eq!(sorted(got), sorted(want.clone()), "cuts {cuts:?}");
+        assert_eq!(
+            sorted_events(got),
+            sorted_events(want.clone()),
+            "cuts {cuts:?}"
+        );
         assert_eq!(band.counters(), once.counters(), "cuts {cuts:?}");
     }
 }

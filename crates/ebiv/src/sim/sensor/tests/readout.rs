@@ -452,7 +452,7 @@ fn streaming_readout_matches_the_step_by_step_definition() {
             );
         }
         assert_eq!(stream.late_events(), 0, "trial {trial}");
-        let (got, report) = stream.finish();
+        let (got, report) = stream.finish(&mut []);
 
         let inside: Vec<SimEvent> = events
             .iter()
@@ -467,8 +467,14 @@ fn streaming_readout_matches_the_step_by_step_definition() {
     }
 }
 
+/// The events handed in, read out and dropped as invalid, from a report.
+fn stream_late(report: &ReadoutReport) -> (u64, u64, u64) {
+    (report.events_in, report.events_out, report.dropped_invalid)
+}
+
 /// An event handed in after a cutoff above its time is read out at that cutoff, and
-/// counted; reading to the same or an earlier cutoff again changes nothing.
+/// counted; reading to the same or an earlier cutoff again changes nothing, and a cutoff
+/// that is not finite only hands the events in.
 #[test]
 fn streaming_readout_reads_a_late_event_at_the_last_cutoff() {
     let mut p = SensorParams::ideal();
@@ -477,9 +483,16 @@ fn streaming_readout_reads_a_late_event_at_the_last_cutoff() {
     stream.read_until(&mut [vec![ev(3.5, 1, 1, 1), ev(12.0, 2, 2, 0)]], 10.0);
     stream.read_until(&mut [vec![ev(7.25, 3, 3, 1)]], 10.0);
     stream.read_until(&mut [], 5.0);
+    // Not finite: the events are handed in, nothing more is read out.
+    stream.read_until(&mut [vec![ev(11.0, 0, 0, 0)]], f64::INFINITY);
+    stream.read_until(&mut [vec![ev(10.5, 0, 1, 1)]], f64::NAN);
     assert_eq!(stream.late_events(), 1);
-    let (out, report) = stream.finish();
-    assert_eq!(out.t, vec![3, 10, 12]);
-    assert_eq!(out.x, vec![1, 3, 2]);
-    assert_eq!((report.events_in, report.events_out), (3, 3));
+    let (out, report) = stream.finish(&mut [vec![ev(9.0, 1, 0, 0), ev(30.0, 1, 2, 1)]]);
+    assert_eq!(out.t, vec![3, 10, 10, 10, 11, 12, 30]);
+    assert_eq!(out.x, vec![1, 1, 3, 0, 0, 2, 1]);
+    assert_eq!(stream_late(&report), (7, 7, 0));
+    let mut stream = StreamingReadout::new(&p, crate::event::Geometry::new(4, 4));
+    stream.read_until(&mut [vec![ev(1.0, 1, 1, 1)]], f64::NEG_INFINITY);
+    let (out, _) = stream.finish(&mut []);
+    assert_eq!(out.t, vec![1]);
 }
