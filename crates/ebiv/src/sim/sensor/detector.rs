@@ -453,7 +453,7 @@ impl StepContext<'_> {
         let k = px.count_event();
         if r.jitter > 0.0 {
             let index = ((k as u64) << 32) | self.first.wrapping_add(local) as u64;
-            let z = Rng::new(self.jitter_seed, Stream::Temporal, index).normal_fast();
+            let z = Rng::first_normal(self.jitter_seed, Stream::Temporal, index);
             trip += (r.jitter * z).max(-r.latency);
         }
         if trip < px.release {
