@@ -217,13 +217,6 @@ impl Simulation {
             }
             used
         };
-        // The events of each batch are read out while the bands simulate the next one: all
-        // events found later lie at or after the batch's end (an event is never earlier than
-        // the threshold crossing that causes it, nor a crossing than the step that finds it;
-        // a sleeping pixel's crossing is computed as its wake-up time was), so those before
-        // it are final. The cutoff `READOUT_HOLD_US` before the end is a margin on that
-        // argument; an event that broke it would be read out at the cutoff (counted by
-        // `late_events`, asserted zero in tests).
         // The pixels are set up while the first batch's particle motion is computed.
         let mut current: Vec<Sample> = Vec::new();
         let mut next: Vec<Sample> = Vec::new();
@@ -244,6 +237,13 @@ impl Simulation {
             },
             || (fill(&mut current), StreamingReadout::new(&self.sensor, g)),
         );
+        // The events of each batch are read out while the bands simulate the next one: all
+        // events found later lie at or after the batch's end (an event is never earlier than
+        // the threshold crossing that causes it, nor a crossing than the step that finds it;
+        // a sleeping pixel's crossing is computed as its wake-up time was), so those before
+        // it are final. The cutoff `READOUT_HOLD_US` before the end is a margin on that
+        // argument; an event that broke it would be read out at the cutoff (counted by
+        // `late_events`, asserted zero in tests).
         let mut window: Vec<Vec<SimEvent>> = vec![Vec::new(); bands.len()];
         let mut window_end = None;
         while used > 0 {
@@ -286,12 +286,14 @@ impl Simulation {
             std::mem::swap(&mut current, &mut next);
             used = next_used;
         }
+        // The last batch's events are handed in (and checked for lateness), then all read out.
+        readout.read_until(&mut window, f64::INFINITY);
         debug_assert_eq!(
             readout.late_events(),
             0,
             "an event came after its batch's cutoff"
         );
-        let (events, mut readout) = readout.finish(&mut window);
+        let (events, mut readout) = readout.finish(&mut []);
         for band in &bands {
             readout.absorb(&band.sensor.counters());
         }
