@@ -27,8 +27,19 @@ pub struct Rng {
     spare_normal: Option<f64>,
 }
 
+/// The SplitMix64 state from which the generator of `stream` and item `index` of `seed`
+/// draws its four words.
+#[inline]
+fn splitmix_start(seed: u64, stream: Stream, index: u64) -> u64 {
+    seed ^ (stream as u64).wrapping_mul(0xD6E8_FEB8_6659_FD93)
+        ^ index.wrapping_mul(0xA076_1D64_78BD_642F)
+}
+
+/// The increment of the SplitMix64 state per output.
+const SPLITMIX_GAMMA: u64 = 0x9E37_79B9_7F4A_7C15;
+
 fn splitmix64(state: &mut u64) -> u64 {
-    *state = state.wrapping_add(0x9E37_79B9_7F4A_7C15);
+    *state = state.wrapping_add(SPLITMIX_GAMMA);
     let mut z = *state;
     z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
     z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
@@ -38,9 +49,7 @@ fn splitmix64(state: &mut u64) -> u64 {
 impl Rng {
     /// The generator for `stream` and item `index` (a pixel, a particle, a band) of `seed`.
     pub fn new(seed: u64, stream: Stream, index: u64) -> Self {
-        let mut state = seed
-            ^ (stream as u64).wrapping_mul(0xD6E8_FEB8_6659_FD93)
-            ^ index.wrapping_mul(0xA076_1D64_78BD_642F);
+        let mut state = splitmix_start(seed, stream, index);
         let s = [
             splitmix64(&mut state),
             splitmix64(&mut state),
@@ -60,12 +69,10 @@ impl Rng {
     /// rectangles (about 1 % of draws).
     #[inline]
     pub fn first_normal(seed: u64, stream: Stream, index: u64) -> f64 {
-        let mut state = seed
-            ^ (stream as u64).wrapping_mul(0xD6E8_FEB8_6659_FD93)
-            ^ index.wrapping_mul(0xA076_1D64_78BD_642F);
+        let mut state = splitmix_start(seed, stream, index);
         let s0 = splitmix64(&mut state);
-        // Words 1 and 2 each advance the splitmix state by its constant.
-        state = state.wrapping_add(0x9E37_79B9_7F4A_7C15u64.wrapping_mul(2));
+        // Words 1 and 2 each advance the splitmix state by its increment.
+        state = state.wrapping_add(SPLITMIX_GAMMA.wrapping_mul(2));
         let s3 = splitmix64(&mut state);
         let bits = s0.wrapping_add(s3).rotate_left(23).wrapping_add(s0);
         let (layer, u) = ziggurat_layer(bits);
