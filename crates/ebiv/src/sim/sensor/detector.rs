@@ -1,9 +1,8 @@
 //! The change detector of one pixel over one time step (sensor-model.md §2.1, §2.5): level
 //! crossings of the low-passed log intensity, refractory period, jitter and latency.
 
-use super::response::{clean_irradiance, Curve, Response};
+use super::response::{clean_irradiance, Curve, Relaxation, Response};
 use super::{PixelCounters, SimEvent};
-use crate::sim::fastmath;
 use crate::sim::rng::{Rng, Stream};
 
 /// Bit of [`Pixel::events`]: the pixel is blind (refractory) until `release`, then its
@@ -107,13 +106,13 @@ impl Pixel {
 }
 
 /// A new sample cleaned ([`clean_irradiance`]) and its log response `u`, the low-pass
-/// corner `omega` of the ramp to it (at the mean irradiance) and `decay = e^(−ω·Δt)` over the
+/// corner `omega` of the ramp to it (at the mean irradiance) and its [`Relaxation`] over the
 /// step ([`StepContext::prepare`]).
 #[derive(Debug, Clone, Copy, Default)]
 pub(super) struct Ramp {
     u: f64,
     omega: f64,
-    decay: f64,
+    relax: Relaxation,
     irr: f32,
 }
 
@@ -168,10 +167,10 @@ impl StepContext<'_> {
                 // A pixel frozen or asleep since `px.t`: its constant-input stretch first.
                 self.segment(px, local, ta, None, None);
             }
-            // The ramp's `decay` is that of the segment's curve if it starts at `ta` (same
-            // corner, same length), which spares the segment an exponential.
-            let decay = (px.t == ta).then_some(ramp.decay);
-            self.segment(px, local, tb, Some((irr, u)), decay);
+            // The ramp's relaxation is that of the segment's curve if it starts at `ta` (same
+            // corner, same length), which spares the segment an exponential and a division.
+            let relax = (px.t == ta).then_some(ramp.relax);
+            self.segment(px, local, tb, Some((irr, u)), relax);
         } else {
             self.segment(px, local, tb, None, None);
         }
@@ -221,7 +220,7 @@ impl StepContext<'_> {
         Ramp {
             u,
             omega,
-            decay: fastmath::exp(-(omega * dt)),
+            relax: Relaxation::new(omega, dt),
             irr,
         }
     }
@@ -242,11 +241,11 @@ impl StepContext<'_> {
         for ((w, &a), &b) in omega.iter_mut().zip(&old).zip(&irr) {
             *w = r.omega(0.5 * (a as f64 + b as f64));
         }
-        let decay = fastmath::exp_lanes(omega.map(|w| -(w * dt)));
+        let relax = Relaxation::lanes(omega, dt);
         std::array::from_fn(|k| Ramp {
             u: u[k],
             omega: omega[k],
-            decay: decay[k],
+            relax: relax[k],
             irr: irr[k],
         })
     }
@@ -281,7 +280,7 @@ impl StepContext<'_> {
         }
         let ub = ramp.u;
         let curve = Curve::low_pass(ta, tb, px.l, px.u, ub, omega);
-        let lb = curve.end_value_from(ramp.decay);
+        let lb = curve.end_value_from(ramp.relax);
         let hi = px.l_ref + px.theta_on - TIE;
         let lo = px.l_ref - px.theta_off + TIE;
         let inside = |v: f64| v < hi && v > lo;
@@ -331,8 +330,8 @@ impl StepContext<'_> {
 
     /// Advance the pixel from `px.t` to `tb`, its input constant or, with `new = (irradiance,
     /// log response)`, ramping linearly in log to the new sample; emit the events of the
-    /// stretch. `decay`, if given, is `e^(−ω·(tb − px.t))` of this stretch's low-pass corner
-    /// ω ([`Curve::end_value_from`]).
+    /// stretch. `relax`, if given, is the [`Relaxation`] of this stretch's low-pass corner over
+    /// `tb − px.t` ([`Curve::end_value_from`]).
     #[inline]
     fn segment(
         &mut self,
@@ -340,7 +339,7 @@ impl StepContext<'_> {
         local: u32,
         tb: f64,
         new: Option<(f32, f64)>,
-        decay: Option<f64>,
+        relax: Option<Relaxation>,
     ) {
         let r = self.response;
         let ta = px.t;
@@ -352,8 +351,8 @@ impl StepContext<'_> {
         } else {
             Curve::direct(ta, tb, px.u, ub)
         };
-        let lb = match decay {
-            Some(decay) => curve.end_value_from(decay),
+        let lb = match relax {
+            Some(relax) => curve.end_value_from(relax),
             None => curve.end_value(),
         };
 

@@ -162,6 +162,40 @@ fn one_minus_exp(x: f64) -> f64 {
     1.0 - fastmath::exp(-x)
 }
 
+/// The parts of a low-pass step of corner ω over `Δt` that depend on ω and `Δt` alone:
+/// `rise = 1 − e^(−ω·Δt)` and `lag = rise/ω` ([`Curve::end_value_from`]). Computed for many
+/// pixels at once ([`Relaxation::lanes`]), so that their exponentials and divisions run in
+/// vector instructions.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub(super) struct Relaxation {
+    rise: f64,
+    lag: f64,
+}
+
+impl Relaxation {
+    /// The relaxations of corners `omega` over `dt`, lane by lane, bit for bit
+    /// [`Relaxation::new`] of each ([`fastmath::exp_lanes`]).
+    #[inline(always)]
+    pub(super) fn lanes<const N: usize>(omega: [f64; N], dt: f64) -> [Relaxation; N] {
+        let decay = fastmath::exp_lanes(omega.map(|w| -(w * dt)));
+        let rise = decay.map(|d| 1.0 - d);
+        std::array::from_fn(|k| Relaxation {
+            rise: rise[k],
+            lag: rise[k] / omega[k],
+        })
+    }
+
+    /// The relaxation of corner `omega` over `dt`.
+    #[inline]
+    pub(super) fn new(omega: f64, dt: f64) -> Relaxation {
+        let rise = one_minus_exp(omega * dt);
+        Relaxation {
+            rise,
+            lag: rise / omega,
+        }
+    }
+}
+
 /// The low-passed log intensity `L(s)` of one pixel over one step `[ta, tb]`.
 ///
 /// The input `u(s) = u_a + m·(s − ta)` is linear in time (log intensity interpolated between
@@ -265,19 +299,24 @@ impl Curve {
         self.value(self.tb)
     }
 
-    /// `L(tb)` given `decay = e^(−ω·(tb − ta))` of a low-pass curve: the same value as
-    /// [`Curve::end_value`], bit for bit.
+    /// `L(tb)` of a low-pass curve given its [`Relaxation`] over the whole curve: the same
+    /// value as [`Curve::end_value`], bit for bit, without its exponential and division.
     #[inline]
-    pub fn end_value_from(&self, decay: f64) -> f64 {
+    pub fn end_value_from(&self, relax: Relaxation) -> f64 {
         match self.kind {
-            Kind::Relax { gap, m, omega } => {
-                self.relaxed(gap, m, omega, self.tb - self.ta, 1.0 - decay)
+            Kind::Relax { gap, m, .. } => {
+                let mut l = self.la + gap * relax.rise;
+                if m != 0.0 {
+                    l += m * ((self.tb - self.ta) - relax.lag);
+                }
+                l
             }
             Kind::Linear { .. } => self.end_value(),
         }
     }
 
-    /// The low-pass response `ds` after `ta`, with `e1 = 1 − e^(−ω·ds)`.
+    /// The low-pass response `ds` after `ta`, with `e1 = 1 − e^(−ω·ds)` (the same arithmetic as
+    /// [`Curve::end_value_from`]).
     #[inline]
     fn relaxed(&self, gap: f64, m: f64, omega: f64, ds: f64, e1: f64) -> f64 {
         let mut l = self.la + gap * e1;
