@@ -268,19 +268,20 @@ impl<'a> ParticleRenderer<'a> {
     }
 
     /// Add the image of `p` at light factor `light` to the band holding rows `rows` (stored
-    /// row-major in `acc`, one entry per pixel of the band); every pixel first written is
-    /// appended to `touched` (its index within the band) and marked in `mark`.
+    /// row-major in `acc`, one entry per pixel of the band, 0 where nothing is drawn yet);
+    /// every pixel first written (its entry was 0) is appended to `touched` (its index within
+    /// the band). Every contribution drawn is positive, so an entry is 0 exactly while no
+    /// image has been drawn on it.
     pub fn add(
         &mut self,
         p: &Particle,
         light: f64,
         rows: std::ops::Range<u32>,
         acc: &mut [f32],
-        mark: &mut [bool],
         touched: &mut Vec<u32>,
     ) {
         if let Some(spot) = self.spot(p, light) {
-            self.draw(&spot, rows, acc, mark, touched);
+            self.draw(&spot, rows, acc, touched);
         }
     }
 
@@ -296,7 +297,6 @@ impl<'a> ParticleRenderer<'a> {
         spot: &Spot,
         rows: std::ops::Range<u32>,
         acc: &mut [f32],
-        mark: &mut [bool],
         touched: &mut Vec<u32>,
     ) {
         let r = spot.reach;
@@ -325,11 +325,8 @@ impl<'a> ParticleRenderer<'a> {
             let pixel_floor = floor / wy;
             let row = (yy - rows.start as i64) as usize * w as usize;
             let span = row + x0..=row + x1;
-            let pixels = acc[span.clone()]
-                .iter_mut()
-                .zip(&mut mark[span])
-                .zip(&self.ex[..=x1 - x0]);
-            for (i, ((a, m), &wx)) in pixels.enumerate() {
+            let pixels = acc[span].iter_mut().zip(&self.ex[..=x1 - x0]);
+            for (i, (a, &wx)) in pixels.enumerate() {
                 if wx < pixel_floor {
                     continue;
                 }
@@ -337,11 +334,16 @@ impl<'a> ParticleRenderer<'a> {
                 if walls && self.illumination.occluded(xx as u32, yy as u32) {
                     continue;
                 }
-                *a += (wy * wx) as f32;
-                if !*m {
-                    *m = true;
+                let light = (wy * wx) as f32;
+                // Positive, or nothing is drawn (a background so dark that the light
+                // underflows), so that `acc` is 0 exactly where no image lies.
+                if !(light > 0.0) {
+                    continue;
+                }
+                if *a == 0.0 {
                     touched.push((row + xx) as u32);
                 }
+                *a += light;
             }
         }
     }
@@ -449,30 +451,14 @@ mod tests {
         let g = Geometry::new(20, 20);
         let mut r = ParticleRenderer::new(&seeding, &illum, g);
         let mut acc = vec![0f32; 400];
-        let mut mark = vec![false; 400];
         let mut touched = Vec::new();
-        r.add(
-            &particle(10.0, 10.0),
-            1.0,
-            0..20,
-            &mut acc,
-            &mut mark,
-            &mut touched,
-        );
+        r.add(&particle(10.0, 10.0), 1.0, 0..20, &mut acc, &mut touched);
         assert!((acc[10 * 20 + 10] - 20.0).abs() < 1e-4);
         // The integral of the spot is peak · (√(2π) σ)² / (pixel fraction)²: symmetric, and
         // moving the particle by a sub-pixel amount keeps the total.
         let total: f32 = acc.iter().sum();
         let mut acc2 = vec![0f32; 400];
-        let mut mark2 = vec![false; 400];
-        r.add(
-            &particle(10.3, 9.6),
-            1.0,
-            0..20,
-            &mut acc2,
-            &mut mark2,
-            &mut Vec::new(),
-        );
+        r.add(&particle(10.3, 9.6), 1.0, 0..20, &mut acc2, &mut Vec::new());
         let total2: f32 = acc2.iter().sum();
         assert!((total - total2).abs() < 1e-3 * total, "{total} {total2}");
         assert!((acc[10 * 20 + 9] - acc[10 * 20 + 11]).abs() < 1e-5);
@@ -494,16 +480,8 @@ mod tests {
         let g = Geometry::new(20, 20);
         let mut r = ParticleRenderer::new(&seeding, &illum, g);
         let mut acc = vec![0f32; 5 * 20];
-        let mut mark = vec![false; 5 * 20];
         let mut touched = Vec::new();
-        r.add(
-            &particle(10.0, 11.0),
-            1.0,
-            10..15,
-            &mut acc,
-            &mut mark,
-            &mut touched,
-        );
+        r.add(&particle(10.0, 11.0), 1.0, 10..15, &mut acc, &mut touched);
         assert!(
             touched.iter().all(|&k| k % 20 >= 10),
             "nothing behind the wall"

@@ -92,9 +92,9 @@ struct Band {
     sensor: SensorBand,
     /// Current irradiance per band pixel.
     value: Vec<f32>,
-    /// Particle contribution being accumulated for the new sample.
+    /// Particle contribution being accumulated for the new sample (0 where none: see
+    /// [`ParticleRenderer::add`]).
     acc: Vec<f32>,
-    mark: Vec<bool>,
     /// Pixels with particle light at the previous sample (band indices).
     lit: Vec<u32>,
     touched: Vec<u32>,
@@ -429,16 +429,15 @@ impl Band {
             value.extend((0..w as u32).map(|x| illumination.ambient(x, y, t0)));
         }
         // Zeroed memory: paged in where particles pass, not up front.
-        let (mut acc, mut mark) = (vec![0.0; n], vec![false; n]);
+        let mut acc = vec![0.0; n];
         let mut lit = Vec::new();
         for spot in bucket {
-            r.draw(spot, rows.clone(), &mut acc, &mut mark, &mut lit);
+            r.draw(spot, rows.clone(), &mut acc, &mut lit);
         }
         for &k in &lit {
             let k = k as usize;
             value[k] += acc[k];
             acc[k] = 0.0;
-            mark[k] = false;
         }
         let mut sensor =
             SensorBand::new_adapted(g, rows.clone(), &sim.sensor, sim.seed, t0, |x, y| {
@@ -450,7 +449,6 @@ impl Band {
             sensor,
             value,
             acc,
-            mark,
             lit,
             touched: Vec::new(),
             noise,
@@ -470,13 +468,7 @@ impl Band {
         flicker: bool,
     ) {
         for spot in bucket {
-            r.draw(
-                spot,
-                self.rows.clone(),
-                &mut self.acc,
-                &mut self.mark,
-                &mut self.touched,
-            );
+            r.draw(spot, self.rows.clone(), &mut self.acc, &mut self.touched);
         }
         let w = g.width as usize;
         let row0 = self.rows.start;
@@ -504,12 +496,11 @@ impl Band {
             }
             for &k in &self.touched {
                 self.acc[k as usize] = 0.0;
-                self.mark[k as usize] = false;
             }
         } else {
             // Pixels lit before but not now fall back to the ambient level.
             for &k in &self.lit {
-                if !self.mark[k as usize] {
+                if self.acc[k as usize] == 0.0 {
                     update(k as usize, ambient(k as usize));
                 }
             }
@@ -517,7 +508,6 @@ impl Band {
                 let k = k as usize;
                 update(k, ambient(k) + self.acc[k]);
                 self.acc[k] = 0.0;
-                self.mark[k] = false;
             }
         }
         std::mem::swap(&mut self.lit, &mut self.touched);
