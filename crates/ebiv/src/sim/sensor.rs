@@ -34,9 +34,10 @@
 //! frame, then per time step `advance` with the pixels whose irradiance changed, `noise` over
 //! the recording, and finally [`read_out_parts`] of all bands' events (add each band's
 //! [`SensorBand::counters`] to the report with [`ReadoutReport::absorb`]). A long recording
-//! can instead be read out while it is simulated: noise drawn window by window
-//! ([`SensorBand::noise_stream`]) and the events handed to a [`StreamingReadout`], which gives
-//! the same result with the memory of one window.
+//! is better read out while it is simulated, as `ebiv simulate` does: noise drawn window by
+//! window ([`SensorBand::noise_stream`]) and the events handed to a [`StreamingReadout`],
+//! which gives the same result with the memory of one window (`read_out_parts` is its one
+//! window).
 
 mod active;
 mod band;

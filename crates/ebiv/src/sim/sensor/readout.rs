@@ -9,13 +9,8 @@ pub use stream::StreamingReadout;
 use super::params::{SensorParams, TimestampMode};
 use super::response::clean;
 use super::{PixelCounters, SimEvent};
-use crate::event::EventBuffer;
+use crate::event::{EventBuffer, Geometry};
 use crate::sim::fastmath::floor_i64;
-use rayon::iter::{
-    IndexedParallelIterator, IntoParallelIterator, IntoParallelRefIterator,
-    IntoParallelRefMutIterator, ParallelIterator,
-};
-use rayon::slice::ParallelSliceMut;
 
 /// What the readout did, and (after [`ReadoutReport::absorb`]) what the pixels did.
 #[derive(Debug, Clone, Default, PartialEq, Eq, serde::Serialize)]
@@ -71,31 +66,20 @@ pub fn read_out(events: Vec<SimEvent>, params: &SensorParams) -> (EventBuffer, R
 /// without first copying them into one vector: the same events, in the same order, whatever
 /// the parts and their order.
 ///
-/// The work is spread over the threads: the events are put in order by a parallel bucket
-/// sort of packed keys ([`sorted_keys`]; one part is scattered by one thread), the
-/// refractory filter and the token bucket run over chunks of the keys in parallel, each
-/// chunk checked against the state the chunks before leave ([`filter::drops`]; the token
-/// bucket sees exactly the events the refractory filter keeps), and the output arrays are
-/// filled in parallel. The bucket starts full at the first event overall, which is also the
-/// first the refractory filter keeps (its pixel has no earlier event).
+/// One window of a [`StreamingReadout`] over a sensor just large enough for every event: the
+/// events are packed into keys that order them totally, bucket-sorted, filtered in one pass
+/// and stamped.
 pub fn read_out_parts(
     parts: &[&[SimEvent]],
     params: &SensorParams,
 ) -> (EventBuffer, ReadoutReport) {
-    let mut report = ReadoutReport {
-        events_in: parts.iter().map(|p| p.len() as u64).sum(),
-        ..ReadoutReport::default()
-    };
-    let keys = sorted_keys(parts);
-    report.dropped_invalid = report.events_in - keys.len() as u64;
-
-    let drops = filter::drops(&keys, readout_filters(params));
-    report.dropped_refractory = drops.refractory;
-    report.dropped_bandwidth = drops.bandwidth;
-
-    let buffer = event_buffer(&keys, &drops.indices, params.timestamp);
-    report.events_out = buffer.len() as u64;
-    (buffer, report)
+    let (width, height) = parts
+        .iter()
+        .flat_map(|part| part.iter().filter(|e| readable(e)))
+        .fold((0, 0), |(w, h), e| {
+            (w.max(u32::from(e.x) + 1), h.max(u32::from(e.y) + 1))
+        });
+    StreamingReadout::new(params, Geometry::new(width, height)).finish_parts(parts)
 }
 
 /// The refractory filter and token bucket `params` ask for.
@@ -119,141 +103,10 @@ fn stamp(timestamp: TimestampMode, t: f64) -> i64 {
     }
 }
 
-/// The events of `part` the readout takes at all: a finite time and a polarity of 0 or 1.
-/// Every pass over the parts goes through this one filter, so that they agree on the events.
+/// Whether the readout takes event `e` at all: a finite time and a polarity of 0 or 1.
 #[inline]
-fn valid_events(part: &[SimEvent]) -> impl Iterator<Item = &SimEvent> {
-    part.iter().filter(|e| e.t_us.is_finite() && e.p <= 1)
-}
-
-/// Events per bucket [`sorted_keys`] aims at.
-const EVENTS_PER_BUCKET: usize = 256;
-
-/// The valid events ([`valid_events`]) of all parts packed ([`pack`]) and sorted: by time, then
-/// row, column, polarity.
-///
-/// The key orders events totally (equal keys are identical events), so the result is the
-/// same however the work is split. A parallel bucket sort: each part counts its events per
-/// bucket of equal time span (a monotone function of time, so the buckets are in order) and
-/// writes their keys into the output at its own offsets, the parts in parallel; then each
-/// bucket is sorted on its own, in parallel — a few hundred keys in cache instead of one
-/// sort of millions.
-fn sorted_keys(parts: &[&[SimEvent]]) -> Vec<u128> {
-    let (n, t_min, t_max) = parts
-        .par_iter()
-        .map(|part| {
-            valid_events(part).fold(
-                (0usize, f64::INFINITY, f64::NEG_INFINITY),
-                |(n, lo, hi), e| (n + 1, lo.min(e.t_us), hi.max(e.t_us)),
-            )
-        })
-        .reduce(
-            || (0, f64::INFINITY, f64::NEG_INFINITY),
-            |a, b| (a.0 + b.0, a.1.min(b.1), a.2.max(b.2)),
-        );
-    let buckets = n / EVENTS_PER_BUCKET;
-    if buckets < 2 || t_max <= t_min {
-        let mut keys: Vec<u128> = parts
-            .iter()
-            .flat_map(|part| valid_events(part).map(pack))
-            .collect();
-        keys.par_sort_unstable();
-        return keys;
-    }
-    let per_us = buckets as f64 / (t_max - t_min);
-    let bucket_of = |e: &SimEvent| (((e.t_us - t_min) * per_us) as usize).min(buckets - 1);
-
-    // Per part, its events per bucket; then where its first and last one go: bucket `b` of
-    // the output starts at `start[b]` and holds the part's events after those of the parts
-    // before it.
-    let counts: Vec<Vec<usize>> = parts
-        .par_iter()
-        .map(|part| {
-            let mut counts = vec![0usize; buckets];
-            for e in valid_events(part) {
-                counts[bucket_of(e)] += 1;
-            }
-            counts
-        })
-        .collect();
-    let mut offsets = counts.clone();
-    let mut ends = counts;
-    let mut start = Vec::with_capacity(buckets + 1);
-    start.push(0usize);
-    for b in 0..buckets {
-        let mut offset = start[b];
-        for (first, end) in offsets.iter_mut().zip(ends.iter_mut()) {
-            (first[b], end[b]) = (offset, offset + end[b]);
-            offset = end[b];
-        }
-        start.push(offset);
-    }
-
-    let mut keys = vec![0u128; n];
-    let slots = DisjointSlots::new(&mut keys);
-    parts
-        .par_iter()
-        .zip(offsets.par_iter_mut())
-        .zip(ends.par_iter())
-        .for_each(|((part, next), ends)| {
-            for e in valid_events(part) {
-                let b = bucket_of(e);
-                let slot = &mut next[b];
-                assert!(*slot < ends[b], "bucket {b} of a part overflows its range");
-                // SAFETY: part `p` writes bucket `b` only inside `offsets[p][b]..ends[p][b]`
-                // (asserted), ranges the prefix sums above lay end to end without overlap,
-                // and each part's task is the only one advancing its own offsets.
-                unsafe { slots.write(*slot, pack(e)) };
-                *slot += 1;
-            }
-        });
-
-    let mut pieces = Vec::with_capacity(buckets);
-    let mut rest = keys.as_mut_slice();
-    for b in 0..buckets {
-        let (piece, tail) = rest.split_at_mut(start[b + 1] - start[b]);
-        pieces.push(piece);
-        rest = tail;
-    }
-    pieces
-        .into_par_iter()
-        .with_min_len(64)
-        .for_each(|piece| piece.sort_unstable());
-    keys
-}
-
-/// A slice that several threads write at once, each at indices no other thread writes
-/// ([`sorted_keys`]' scatter, whose destinations are laid out by prefix sums).
-struct DisjointSlots<'a> {
-    ptr: *mut u128,
-    len: usize,
-    _slice: std::marker::PhantomData<&'a mut [u128]>,
-}
-
-// SAFETY: shared between threads only through `write`, whose callers guarantee that no two
-// threads write the same index; the slice stays mutably borrowed, so untouched by anything
-// else, until every task of the scatter has ended.
-unsafe impl Sync for DisjointSlots<'_> {}
-
-impl<'a> DisjointSlots<'a> {
-    fn new(slice: &'a mut [u128]) -> Self {
-        DisjointSlots {
-            ptr: slice.as_mut_ptr(),
-            len: slice.len(),
-            _slice: std::marker::PhantomData,
-        }
-    }
-
-    /// Write `value` at `index` (panics if out of bounds).
-    ///
-    /// # Safety
-    /// No other thread may read or write `index` while the slots exist.
-    #[inline]
-    unsafe fn write(&self, index: usize, value: u128) {
-        assert!(index < self.len, "slot {index} of {}", self.len);
-        // SAFETY: in bounds (checked), and the caller rules out concurrent access.
-        unsafe { self.ptr.add(index).write(value) }
-    }
+fn readable(e: &SimEvent) -> bool {
+    e.t_us.is_finite() && e.p <= 1
 }
 
 /// An event of finite time as one integer whose order is that of (time, row, column,
@@ -309,63 +162,6 @@ fn unordered_bits(key: u64) -> u64 {
     } else {
         !key
     }
-}
-
-/// Events per task when [`event_buffer`] fills its arrays.
-const BUFFER_CHUNK: usize = 1 << 16;
-
-/// The packed events `keys` but those at the indices `dropped` (ascending) as an event buffer,
-/// time stamps rounded or truncated to 1 µs; filled in parallel.
-fn event_buffer(keys: &[u128], dropped: &[usize], timestamp: TimestampMode) -> EventBuffer {
-    let n = keys.len() - dropped.len();
-    let mut buffer = EventBuffer {
-        t: vec![0; n],
-        x: vec![0; n],
-        y: vec![0; n],
-        p: vec![0; n],
-        triggers: Vec::new(),
-    };
-    buffer
-        .t
-        .par_chunks_mut(BUFFER_CHUNK)
-        .zip(buffer.x.par_chunks_mut(BUFFER_CHUNK))
-        .zip(buffer.y.par_chunks_mut(BUFFER_CHUNK))
-        .zip(buffer.p.par_chunks_mut(BUFFER_CHUNK))
-        .enumerate()
-        .for_each(|(chunk, (((t, x), y), p))| {
-            // The chunk's first output is the kept key after `skipped` dropped ones.
-            let first = chunk * BUFFER_CHUNK;
-            let mut skipped = dropped_before_kept(dropped, first);
-            let mut i = first + skipped;
-            for k in 0..t.len() {
-                while dropped.get(skipped) == Some(&i) {
-                    skipped += 1;
-                    i += 1;
-                }
-                let key = keys[i];
-                t[k] = stamp(timestamp, key_time(key));
-                (x[k], y[k]) = key_pixel(key);
-                p[k] = key as u8;
-                i += 1;
-            }
-        });
-    buffer
-}
-
-/// How many of the `dropped` indices (ascending) come before the `kept`-th index not among
-/// them (counting from 0): `dropped[j]` does iff at most `kept` indices before it are kept,
-/// `dropped[j] − j ≤ kept`, which holds for a prefix of `j`.
-fn dropped_before_kept(dropped: &[usize], kept: usize) -> usize {
-    let (mut lo, mut hi) = (0, dropped.len());
-    while lo < hi {
-        let mid = (lo + hi) / 2;
-        if dropped[mid] - mid <= kept {
-            lo = mid + 1;
-        } else {
-            hi = mid;
-        }
-    }
-    lo
 }
 
 #[cfg(test)]

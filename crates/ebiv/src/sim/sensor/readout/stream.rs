@@ -1,11 +1,12 @@
 //! The readout of a recording whose events arrive window by window while it is simulated
-//! ([`StreamingReadout`]): the same result as [`super::read_out_parts`] of all events at
-//! once, with the work done in small pieces that stay in cache and memory that is reused.
+//! ([`StreamingReadout`]): the same result as reading all events out at once (which
+//! [`super::read_out_parts`] does as one window), with the work done in small pieces that
+//! stay in cache and memory that is reused.
 
 use super::super::params::TimestampMode;
 use super::filter::{Filters, StreamFilter};
 use super::{key_pixel, key_time, ReadoutReport};
-use super::{pack, readout_filters, stamp};
+use super::{pack, readable, readout_filters, stamp};
 use crate::event::{EventBuffer, Geometry};
 use crate::sim::sensor::{SensorParams, SimEvent};
 
@@ -84,11 +85,14 @@ impl StreamingReadout {
             self.done_until
         };
         self.read_window(parts, cutoff);
+        for part in parts.iter_mut() {
+            part.clear();
+        }
     }
 
     /// [`StreamingReadout::read_until`] for any cutoff above the last; +∞ reads out every
     /// event.
-    fn read_window(&mut self, parts: &mut [Vec<SimEvent>], cutoff: f64) {
+    fn read_window<P: AsRef<[SimEvent]>>(&mut self, parts: &[P], cutoff: f64) {
         let start = self.done_until;
         let cutoff = if cutoff > start { cutoff } else { start };
         let (width, height) = (self.geometry.width, self.geometry.height);
@@ -101,16 +105,14 @@ impl StreamingReadout {
         let mut unsorted = std::mem::take(&mut self.unsorted);
         unsorted.clear();
         let (mut t_lo, mut t_hi) = (f64::INFINITY, f64::NEG_INFINITY);
-        for (k, part) in std::iter::once(&held).chain(parts.iter()).enumerate() {
+        let parts = parts.iter().map(|part| part.as_ref());
+        for (k, part) in std::iter::once(held.as_slice()).chain(parts).enumerate() {
             let handed_in = k > 0;
             if handed_in {
                 self.report.events_in += part.len() as u64;
             }
             for e in part {
-                let valid = e.t_us.is_finite()
-                    && e.p <= 1
-                    && u32::from(e.x) < width
-                    && u32::from(e.y) < height;
+                let valid = readable(e) && u32::from(e.x) < width && u32::from(e.y) < height;
                 if !valid {
                     self.report.dropped_invalid += 1;
                     continue;
@@ -141,9 +143,6 @@ impl StreamingReadout {
 
         self.held = next_held;
         self.spare = held;
-        for part in parts.iter_mut() {
-            part.clear();
-        }
         self.done_until = cutoff;
     }
 
@@ -216,7 +215,19 @@ impl StreamingReadout {
 
     /// Hand in the events of `parts` and read out every event handed in and not yet read
     /// out; return all events in time order with the report.
-    pub fn finish(mut self, parts: &mut [Vec<SimEvent>]) -> (EventBuffer, ReadoutReport) {
+    pub fn finish(self, parts: &mut [Vec<SimEvent>]) -> (EventBuffer, ReadoutReport) {
+        let result = self.finish_parts(parts);
+        for part in parts.iter_mut() {
+            part.clear();
+        }
+        result
+    }
+
+    /// [`StreamingReadout::finish`] of parts it may not empty.
+    pub(super) fn finish_parts<P: AsRef<[SimEvent]>>(
+        mut self,
+        parts: &[P],
+    ) -> (EventBuffer, ReadoutReport) {
         self.read_window(parts, f64::INFINITY);
         self.report.events_out = self.out.len() as u64;
         (self.out, self.report)

@@ -190,30 +190,21 @@ fn read_out_of_parts_matches_the_step_by_step_definition() {
     }
 }
 
-/// [`read_out_parts`] of `events` cut at each of `cut_sets` (and the parts reversed), in
-/// 1 to 4 threads, against [`reference_read_out`].
+/// [`read_out_parts`] of `events` cut at each of `cut_sets` (and the parts reversed) against
+/// [`reference_read_out`].
 fn assert_parts_match_reference(events: &[SimEvent], p: &SensorParams, cut_sets: &[Vec<usize>]) {
     let (want, want_report) = reference_read_out(events, p);
-    for threads in 1..=4 {
-        let pool = rayon::ThreadPoolBuilder::new()
-            .num_threads(threads)
-            .build()
-            .unwrap();
-        for cuts in cut_sets {
-            let mut parts = Vec::new();
-            let mut from = 0;
-            for &c in cuts.iter().chain([events.len()].iter()) {
-                parts.push(&events[from..c]);
-                from = c;
-            }
-            parts.reverse(); // any order of parts
-            let (got, report) = pool.install(|| read_out_parts(&parts, p));
-            assert_eq!(report, want_report, "{threads} threads, cuts {cuts:?}");
-            assert!(
-                got == want,
-                "{threads} threads, cuts {cuts:?}: buffers differ"
-            );
+    for cuts in cut_sets {
+        let mut parts = Vec::new();
+        let mut from = 0;
+        for &c in cuts.iter().chain([events.len()].iter()) {
+            parts.push(&events[from..c]);
+            from = c;
         }
+        parts.reverse(); // any order of parts
+        let (got, report) = read_out_parts(&parts, p);
+        assert_eq!(report, want_report, "cuts {cuts:?}");
+        assert!(got == want, "cuts {cuts:?}: buffers differ");
     }
 }
 
