@@ -839,6 +839,8 @@ mod tests {
         ];
         let mut xs: Vec<f64> = special.to_vec();
         xs.extend(points(-7.0, 7.0, 200_000));
+        // Whole groups of four lanes: none of the arguments is left out.
+        xs.resize(xs.len().div_ceil(4) * 4, 0.5);
         for lanes in xs.chunks_exact(4) {
             let x: [f64; 4] = lanes.try_into().unwrap();
             let want = x.map(|x| erf.eval(x).to_bits());

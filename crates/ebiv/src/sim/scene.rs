@@ -270,8 +270,8 @@ impl<'a> ParticleRenderer<'a> {
     /// Add the image of `p` at light factor `light` to the band holding rows `rows` (stored
     /// row-major in `acc`, one entry per pixel of the band, 0 where nothing is drawn yet);
     /// every pixel first written (its entry was 0) is appended to `touched` (its index within
-    /// the band). Every contribution drawn is positive, so an entry is 0 exactly while no
-    /// image has been drawn on it.
+    /// the band). Every contribution drawn is positive (or NaN, for an infinitely bright
+    /// particle), so an entry is 0 exactly while no image has been drawn on it.
     pub fn add(
         &mut self,
         p: &Particle,
