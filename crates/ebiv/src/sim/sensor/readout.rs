@@ -68,7 +68,8 @@ pub fn read_out(events: Vec<SimEvent>, params: &SensorParams) -> (EventBuffer, R
 ///
 /// One window of a [`StreamingReadout`] over a sensor just large enough for every event: the
 /// events are packed into keys that order them totally, bucket-sorted, filtered in one pass
-/// and stamped.
+/// and stamped, on one thread, with two 16-byte keys per event in memory besides the output
+/// (a long simulation reads out beside its bands instead, as `ebiv simulate` does).
 pub fn read_out_parts(
     parts: &[&[SimEvent]],
     params: &SensorParams,
