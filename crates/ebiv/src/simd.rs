@@ -9,8 +9,9 @@
 //! own), so results are bit-identical on every machine, as the determinism rule of the
 //! design requires. Where the compiler vectorised lane arrays the wrong way, the lanes are
 //! written out: [`Quad`] (four SSE lanes, every x86-64 processor) in the objective's
-//! derivatives, and explicit AVX2 code for the motion vote's pair cells and the derivatives'
-//! eight-lane footprint rows, again with the same operations per lane as the scalar code.
+//! derivatives, and explicit AVX2 code for the motion vote's pair cells, the derivatives'
+//! eight-lane footprint rows and the simulator's erf table (gathered coefficients), again with
+//! the same operations per lane as the scalar code.
 
 /// True where the AVX2 builds of the kernels may run: x86-64 processors with AVX2, detected
 /// at run time (the answer is cached by the standard library).

@@ -497,17 +497,13 @@ mod tests {
     use crate::test_rng::xorshift;
 
     /// `s` in `[s0, s1]` where the monotone `curve` reaches `level`, by bisection.
-    fn bisect(curve: &Curve, level: f64, mut s0: f64, mut s1: f64) -> f64 {
-        let rising = curve.value(s1) > curve.value(s0);
-        for _ in 0..200 {
-            let mid = 0.5 * (s0 + s1);
-            if (curve.value(mid) < level) == rising {
-                s0 = mid;
-            } else {
-                s1 = mid;
-            }
-        }
-        0.5 * (s0 + s1)
+    fn bisect(curve: &Curve, level: f64, s0: f64, s1: f64) -> f64 {
+        let sign = if curve.value(s1) > curve.value(s0) {
+            1.0
+        } else {
+            -1.0
+        };
+        crate::sim::sensor::tests::bisect(|s| sign * (curve.value(s) - level), s0, s1)
     }
 
     /// On random low-pass responses to linear inputs (rising, falling, with and without an

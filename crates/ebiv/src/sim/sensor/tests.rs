@@ -9,6 +9,19 @@ use super::*;
 use crate::event::Geometry;
 use crate::test_rng::xorshift;
 
+/// Bisection of `f` on `[a, b]` (f(a) < 0 < f(b)): the reference for crossing times.
+pub(super) fn bisect(f: impl Fn(f64) -> f64, mut a: f64, mut b: f64) -> f64 {
+    for _ in 0..200 {
+        let m = 0.5 * (a + b);
+        if f(m) < 0.0 {
+            a = m;
+        } else {
+            b = m;
+        }
+    }
+    0.5 * (a + b)
+}
+
 /// The irradiance whose log response under `p` is `l` (inverse of the lin-log map).
 fn irradiance_for_log(p: &SensorParams, l: f64) -> f32 {
     let knee = p.linlog_threshold;

@@ -87,19 +87,6 @@ fn a_new_sample_while_the_pixel_waits_for_its_next_crossing_is_exact() {
     assert_eq!(band.active_pixels(), 0);
 }
 
-/// Bisection of `f` on `[a, b]` (f(a) < 0 < f(b)).
-fn bisect(f: impl Fn(f64) -> f64, mut a: f64, mut b: f64) -> f64 {
-    for _ in 0..200 {
-        let m = 0.5 * (a + b);
-        if f(m) < 0.0 {
-            a = m;
-        } else {
-            b = m;
-        }
-    }
-    0.5 * (a + b)
-}
-
 #[test]
 fn log_ramp_through_a_fixed_low_pass_fires_at_the_exact_solution() {
     let mut p = quiet(SensorParams::ideal());
