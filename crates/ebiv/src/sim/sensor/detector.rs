@@ -393,6 +393,7 @@ impl StepContext<'_> {
         let r = self.response;
         let (theta_on, theta_off) = (px.theta_on, px.theta_off);
         let (mut t, mut lt) = (p0, l0);
+        let inv_omega = curve.inv_omega();
         for _ in 0..MAX_CROSSINGS_PER_STEP {
             if px.blind() {
                 if px.release > p1 {
@@ -402,7 +403,7 @@ impl StepContext<'_> {
                 // The blind time ends inside the piece: count what it hid, then reset the
                 // reference to the photoreceptor value (IEBCS).
                 let end = px.release.max(t);
-                let l = curve.value(end);
+                let l = curve.value_fast(end, inv_omega);
                 self.counters.suppressed_refractory += settle(px, l);
                 px.l_ref = l;
                 px.set_blind(false);
@@ -427,7 +428,7 @@ impl StepContext<'_> {
                 } else {
                     level
                 };
-                let root = curve.root(target, t, p1, lt, l_end);
+                let root = curve.root(target, t, p1, lt, l_end, inv_omega);
                 lt = target;
                 root
             };

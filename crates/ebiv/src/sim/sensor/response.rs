@@ -326,6 +326,24 @@ impl Curve {
         l
     }
 
+    /// `1/ω`, finite even for a subnormal ω (where `e1·(1/ω)` would be 0·∞); 0 without a
+    /// low-pass.
+    #[inline]
+    pub fn inv_omega(&self) -> f64 {
+        match self.kind {
+            Kind::Relax { omega, .. } => (1.0 / omega).min(f64::MAX),
+            Kind::Linear { .. } => 0.0,
+        }
+    }
+
+    /// `L(s)` as [`Curve::derivatives`] computes it, with `inv_omega` = [`Curve::inv_omega`]:
+    /// a multiplication where [`Curve::value`] divides by ω, off the crossing path's chain
+    /// of dependent operations (it may differ from [`Curve::value`] in the last bit).
+    #[inline]
+    pub fn value_fast(&self, s: f64, inv_omega: f64) -> f64 {
+        self.derivatives(s, inv_omega).0
+    }
+
     /// `L(s)`, `dL/ds` and `d²L/ds²` of the low-pass response from one exponential, for the
     /// root finder: `inv_omega` is `1/ω`, so that the value needs no division (it may differ
     /// from [`Curve::value`] in the last bit, which moves a root by far less than its
@@ -369,8 +387,9 @@ impl Curve {
     }
 
     /// The time in `[s0, s1]` where `L` reaches `level`, given that `L` is monotone there
-    /// with `L(s0) = l0`, `L(s1) = l1` and `level` between them.
-    pub fn root(&self, level: f64, s0: f64, s1: f64, l0: f64, l1: f64) -> f64 {
+    /// with `L(s0) = l0`, `L(s1) = l1` and `level` between them. `inv_omega` is
+    /// [`Curve::inv_omega`], which the caller computes once for all crossings of a piece.
+    pub fn root(&self, level: f64, s0: f64, s1: f64, l0: f64, l1: f64, inv_omega: f64) -> f64 {
         if s1 <= s0 || l1 == l0 {
             return s0;
         }
@@ -381,7 +400,7 @@ impl Curve {
                 let r = (level - self.la) / gap;
                 self.ta - (-r).ln_1p() / omega
             }
-            Kind::Relax { .. } => self.newton(level, s0, s1, l0, l1),
+            Kind::Relax { .. } => self.newton(level, s0, s1, l0, l1, inv_omega),
         };
         if s.is_nan() {
             s0
@@ -410,9 +429,9 @@ impl Curve {
         let slope_at = |s: f64, l: f64| omega * (ua + m * (s - self.ta) - l);
         let (d0, d1) = (slope_at(s0, l0), slope_at(s1, l1));
         // `alpha`, `beta`: the end slopes of `s(L)` over the secant's, `S/L′` with `S` the
-        // secant slope of `L`.
-        let secant = (l1 - l0) / (s1 - s0);
-        let (alpha, beta) = (secant / d0, secant / d1);
+        // secant slope of `L`, each with one division.
+        let (dl, ds) = (l1 - l0, s1 - s0);
+        let (alpha, beta) = (dl / (ds * d0), dl / (ds * d1));
         if !(alpha > 0.0 && alpha <= 3.0 && beta > 0.0 && beta <= 3.0) {
             return linear;
         }
@@ -433,15 +452,13 @@ impl Curve {
     ///
     /// The iterations form one chain of dependent operations, so it is written with one
     /// division per step on that chain: the Halley step `f/L′ / (1 − f·c/L′)` as
-    /// `2fL′ / (2L′² − fL″)`, and `1/ω` taken once (the stopping rule's `c` is a division
-    /// off the chain).
-    fn newton(&self, level: f64, s0: f64, s1: f64, l0: f64, l1: f64) -> f64 {
+    /// `2fL′ / (2L′² − fL″)`, and `1/ω` given (the stopping rule's `c` is a division off
+    /// the chain).
+    fn newton(&self, level: f64, s0: f64, s1: f64, l0: f64, l1: f64, inv_omega: f64) -> f64 {
         let omega = match self.kind {
             Kind::Relax { omega, .. } => omega,
             Kind::Linear { .. } => 0.0,
         };
-        // Finite even for a subnormal ω (where `e1·(1/ω)` would be 0·∞).
-        let inv_omega = (1.0 / omega).min(f64::MAX);
         let increasing = l1 > l0;
         let (mut lo, mut hi) = (s0, s1);
         let mut s = self.inverse_hermite(level, s0, s1, l0, l1);
@@ -538,7 +555,7 @@ mod tests {
                 }
                 let level = l0 + (0.05 + 0.9 * uniform()) * (l1 - l0);
                 let want = bisect(&curve, level, s0, s1);
-                let got = curve.root(level, s0, s1, l0, l1);
+                let got = curve.root(level, s0, s1, l0, l1, curve.inv_omega());
                 assert!((got - want).abs() < 1e-6, "{curve:?}: {got} vs {want}");
                 let start = curve.inverse_hermite(level, s0, s1, l0, l1);
                 let linear = s0 + (level - l0) / (l1 - l0) * (s1 - s0);
