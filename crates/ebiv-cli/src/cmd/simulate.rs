@@ -169,10 +169,37 @@ fn example_text(name: &str) -> Result<&'static str, ebiv::Error> {
 pub fn parse_scenario(text: &str, origin: &str) -> Result<Scenario, ebiv::Error> {
     toml::from_str(text).map_err(|e| ebiv::Error::Parse {
         context: origin.to_string(),
-        line: e
-            .span()
-            .map(|s| text[..s.start.min(text.len())].lines().count().max(1) as u64)
-            .unwrap_or(0),
+        line: e.span().map_or(0, |s| line_of(text, s.start)),
         message: e.message().to_string(),
     })
+}
+
+/// The 1-based line holding byte `offset` of `text` (the last line for an offset past the end).
+fn line_of(text: &str, offset: usize) -> u64 {
+    let before = &text.as_bytes()[..offset.min(text.len())];
+    before.iter().filter(|&&b| b == b'\n').count() as u64 + 1
+}
+
+#[cfg(test)]
+mod tests {
+    use super::{line_of, parse_scenario};
+
+    #[test]
+    fn lines_count_from_one_and_a_line_starts_after_its_newline() {
+        let text = "a = 1\nb = 2\n\nc";
+        assert_eq!(line_of(text, 0), 1);
+        assert_eq!(line_of(text, 5), 1);
+        assert_eq!(line_of(text, 6), 2);
+        assert_eq!(line_of(text, 12), 3);
+        assert_eq!(line_of(text, 13), 4);
+        assert_eq!(line_of(text, 1000), 4);
+    }
+
+    #[test]
+    fn a_scenario_error_names_the_line_of_the_offending_key() {
+        let text = "seed = 1\n\n[illumination]\nbackground = 1.0\nflicker_depth = 0.2\n";
+        let err = parse_scenario(text, "s.toml").unwrap_err().to_string();
+        assert!(err.contains("s.toml, line 5:"), "{err}");
+        assert!(err.contains("flicker_depth"), "{err}");
+    }
 }
