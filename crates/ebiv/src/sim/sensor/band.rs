@@ -297,11 +297,22 @@ impl SensorBand {
     }
 
     /// [`SensorBand::set_input`] for a caller that gives each pixel at most one new sample
-    /// per step (and does not also use `set_input` in that step): the sample is queued
-    /// without marking the pixel or looking for an earlier one.
+    /// per step (and does not also use `set_input` in that step), for up to `max` pixels at
+    /// once: `fill` writes `(local pixel, irradiance)` into the first slots of the `max` it is
+    /// given and returns how many it wrote; they are queued without marking the pixels or
+    /// looking for earlier samples. Writing into slots rather than pushing one sample at a
+    /// time spares each sample a capacity check and lets `fill` decide without a branch
+    /// whether a sample counts (it may overwrite a slot it has not counted).
     #[inline]
-    pub(crate) fn push_input(&mut self, local: usize, irr: f32) {
-        self.changed.push((local as u32, irr));
+    pub(crate) fn queue_inputs(
+        &mut self,
+        max: usize,
+        fill: impl FnOnce(&mut [(u32, f32)]) -> usize,
+    ) {
+        let len = self.changed.len();
+        self.changed.resize(len + max, (0, 0.0));
+        let used = fill(&mut self.changed[len..]).min(max);
+        self.changed.truncate(len + used);
     }
 
     /// Run the step begun by [`SensorBand::begin_step`] (see [`SensorBand::advance`]).
