@@ -42,6 +42,7 @@
 mod active;
 mod band;
 mod detector;
+mod inputs;
 mod noise;
 mod params;
 mod readout;

@@ -170,3 +170,29 @@ fn moving_spot_on_events_lead_off_events_trail() {
         );
     }
 }
+
+/// A pixel listed twice in one step takes its last sample; its mark is cleared for the next
+/// step, where it is updated again as if it had been listed once.
+#[test]
+fn a_repeated_pixel_takes_its_last_sample_and_is_updated_again_next_step() {
+    let p = SensorParams::gen4();
+    let (a, b, c) = (1.0f32, 4.0f32, 0.5f32);
+    let mut twice = one_pixel(&p, a);
+    let mut once = one_pixel(&p, a);
+    let (mut ev_twice, mut ev_once) = (Vec::new(), Vec::new());
+    twice.advance(100.0, &[(0, 9.0), (0, b)], &mut ev_twice);
+    once.advance(100.0, &[(0, b)], &mut ev_once);
+    assert_eq!(twice.log_state(0, 0), once.log_state(0, 0));
+    for (t, i) in [(200.0, c), (300.0, b), (400.0, b)] {
+        twice.advance(t, &[(0, i)], &mut ev_twice);
+        once.advance(t, &[(0, i)], &mut ev_once);
+        assert_eq!(twice.log_state(0, 0), once.log_state(0, 0), "t = {t}");
+    }
+    hold(&mut twice, 2000.0, 100.0, &mut ev_twice);
+    hold(&mut once, 2000.0, 100.0, &mut ev_once);
+    assert!(
+        count(&ev_once, 1) > 0 && count(&ev_once, 0) > 0,
+        "{ev_once:?}"
+    );
+    assert_eq!(ev_twice, ev_once);
+}
