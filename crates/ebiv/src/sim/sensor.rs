@@ -42,7 +42,6 @@
 mod active;
 mod band;
 mod detector;
-mod inputs;
 mod noise;
 mod params;
 mod readout;

@@ -481,45 +481,35 @@ impl Band {
             Some(a) => a,
             None => illumination.ambient((k % w) as u32, row0 + (k / w) as u32, t),
         };
-        let (value, acc) = (&mut self.value, &mut self.acc);
-        let (lit, touched) = (&self.lit, &self.touched);
+        let (value, sensor) = (&mut self.value, &mut self.sensor);
         // Each pixel gets at most one new sample per step: the lit pixels and the ones lit
-        // before are disjoint, and each appears once in its list. A sample is written to the
-        // next slot and counted only if it differs from the pixel's last.
-        let max = if flicker {
-            acc.len()
-        } else {
-            lit.len() + touched.len()
-        };
-        self.sensor.queue_inputs(max, |slots| {
-            let mut queued = 0;
-            let mut update = |k: usize, new: f32| {
-                slots[queued] = (k as u32, new);
-                queued += usize::from(new != value[k]);
+        // before are disjoint, and each appears once in its list.
+        let mut update = |k: usize, new: f32| {
+            if new != value[k] {
                 value[k] = new;
-            };
-            if flicker {
-                for (k, &a) in acc.iter().enumerate() {
-                    update(k, ambient(k) + a);
-                }
-                for &k in touched {
-                    acc[k as usize] = 0.0;
-                }
-            } else {
-                // Pixels lit before but not now fall back to the ambient level.
-                for &k in lit {
-                    if acc[k as usize] == 0.0 {
-                        update(k as usize, ambient(k as usize));
-                    }
-                }
-                for &k in touched {
-                    let k = k as usize;
-                    update(k, ambient(k) + acc[k]);
-                    acc[k] = 0.0;
+                sensor.push_input(k, new);
+            }
+        };
+        if flicker {
+            for k in 0..self.acc.len() {
+                update(k, ambient(k) + self.acc[k]);
+            }
+            for &k in &self.touched {
+                self.acc[k as usize] = 0.0;
+            }
+        } else {
+            // Pixels lit before but not now fall back to the ambient level.
+            for &k in &self.lit {
+                if self.acc[k as usize] == 0.0 {
+                    update(k as usize, ambient(k as usize));
                 }
             }
-            queued
-        });
+            for &k in &self.touched {
+                let k = k as usize;
+                update(k, ambient(k) + self.acc[k]);
+                self.acc[k] = 0.0;
+            }
+        }
         std::mem::swap(&mut self.lit, &mut self.touched);
         self.touched.clear();
     }

@@ -4,7 +4,6 @@ use std::ops::Range;
 
 use super::active::ActiveSet;
 use super::detector::{Pixel, Ramp, StepContext};
-use super::inputs::InputQueue;
 use super::noise::RowNoiseBound;
 use super::params::SensorParams;
 use super::response::{clean_irradiance, Curve, Response, MIN_THRESHOLD};
@@ -57,10 +56,8 @@ pub struct SensorBand {
     pub(super) rows: Range<u32>,
     pixels: Vec<Pixel>,
     /// New samples `(local pixel, irradiance)` for the step being prepared, one per pixel
-    /// (a pixel given by [`SensorBand::set_input`] carries the `CHANGED` mark).
-    changed: InputQueue,
-    /// Whether [`SensorBand::set_input`] marked pixels in the step being prepared.
-    marked: bool,
+    /// (the pixel carries the `CHANGED` mark).
+    changed: Vec<(u32, f32)>,
     /// Scratch: [`StepContext::prepare`] of each entry of `changed`.
     ramps: Vec<Ramp>,
     /// Per active pixel, the time before which it need not be visited unless changed.
@@ -162,8 +159,7 @@ impl SensorBand {
             geometry,
             rows,
             pixels,
-            changed: InputQueue::default(),
-            marked: false,
+            changed: Vec::new(),
             ramps: Vec::new(),
             // Read only for members of the active set, which set it first; zeroed memory is
             // not touched (or paged in) until then.
@@ -232,7 +228,9 @@ impl SensorBand {
             }
             px.adapt(irr, last_u, t0);
         }
-        self.clear_marks();
+        for &(local, _) in &self.changed {
+            self.pixels[local as usize].clear_changed();
+        }
         self.changed.clear();
         self.active.clear();
         self.t_now = t0;
@@ -286,12 +284,10 @@ impl SensorBand {
     /// change is allowed but costs a full pixel update.
     #[inline]
     pub fn set_input(&mut self, local: usize, irr: f32) {
-        self.marked = true;
         if self.pixels[local].mark_changed() {
             self.changed.push((local as u32, irr));
         } else if let Some(entry) = self
             .changed
-            .as_mut_slice()
             .iter_mut()
             .rev()
             .find(|e| e.0 as usize == local)
@@ -301,20 +297,11 @@ impl SensorBand {
     }
 
     /// [`SensorBand::set_input`] for a caller that gives each pixel at most one new sample
-    /// per step (and does not also use `set_input` in that step), for up to `max` pixels at
-    /// once: `fill` writes `(local pixel, irradiance)` into the first slots of the `max` it is
-    /// given and returns how many it wrote; they are queued without marking the pixels or
-    /// looking for earlier samples. Writing into slots ([`InputQueue::queue`]) rather than
-    /// pushing one sample at a time spares each sample a capacity check and lets `fill`
-    /// decide without a branch whether a sample counts (it may overwrite a slot it has not
-    /// counted).
+    /// per step (and does not also use `set_input` in that step): the sample is queued
+    /// without marking the pixel or looking for an earlier one.
     #[inline]
-    pub(crate) fn queue_inputs(
-        &mut self,
-        max: usize,
-        fill: impl FnOnce(&mut [(u32, f32)]) -> usize,
-    ) {
-        self.changed.queue(max, fill);
+    pub(crate) fn push_input(&mut self, local: usize, irr: f32) {
+        self.changed.push((local as u32, irr));
     }
 
     /// Run the step begun by [`SensorBand::begin_step`] (see [`SensorBand::advance`]).
@@ -348,7 +335,6 @@ impl SensorBand {
     /// [`SensorBand::advance_marked`] for any processor.
     #[inline(always)]
     pub(super) fn advance_marked_portable(&mut self, out: &mut Vec<SimEvent>) {
-        self.clear_marks();
         let (ta, tb) = (self.t_now, self.t_next);
         let first = self.rows.start as u64 * self.geometry.width as u64;
         let mut ctx = StepContext {
@@ -365,7 +351,7 @@ impl SensorBand {
         let ramps = &mut self.ramps;
         ramps.clear();
         let dt = tb - ta;
-        let changed = self.changed.as_slice();
+        let changed = &self.changed;
         let mut batches = changed.chunks_exact(PREPARE_LANES);
         for (b, batch) in (&mut batches).enumerate() {
             // The pixels of the batch after next: each is a cache miss.
@@ -383,9 +369,10 @@ impl SensorBand {
         ramps.extend(batches.remainder().iter().map(|&(local, irr)| {
             StepContext::prepare(ctx.response, &pixels[local as usize], irr, dt)
         }));
-        for (&(local, _), ramp) in self.changed.as_slice().iter().zip(ramps.iter()) {
+        for (&(local, _), ramp) in self.changed.iter().zip(ramps.iter()) {
             let i = local as usize;
             let px = &mut pixels[i];
+            px.clear_changed();
             let next = match StepContext::quiet_ramp(ctx.response, px, ta, tb, ramp) {
                 Some(next) => next,
                 None => ctx.step(px, local, ta, tb, Some(ramp)),
@@ -422,15 +409,6 @@ impl SensorBand {
         }
         self.updates += updates;
         self.t_now = tb;
-    }
-
-    /// Clear the marks [`SensorBand::set_input`] left on the queued pixels, if it left any.
-    fn clear_marks(&mut self) {
-        if std::mem::take(&mut self.marked) {
-            for &(local, _) in self.changed.as_slice() {
-                self.pixels[local as usize].clear_changed();
-            }
-        }
     }
 
     /// The band's current time, µs.
