@@ -503,3 +503,48 @@ fn the_thread_count_is_chosen_and_does_not_change_results() {
     assert!(!out.status.success());
     assert!(stderr(&out).contains("--threads"), "{}", stderr(&out));
 }
+
+/// `simulate` checks its outputs before it runs: the truth's file type, its sampling (a
+/// grid that would exhaust the memory), and the directories written to; nothing is written.
+#[test]
+fn simulate_refuses_unwritable_or_oversized_outputs_before_running() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = |name: &str| dir.path().join(name).to_str().unwrap().to_string();
+    let scenario = path("s.toml");
+    std::fs::write(
+        &scenario,
+        "duration = \"10s\"\n[sensor]\nwidth = 640\nheight = 480\n\
+         [flow]\ntype = \"uniform\"\nu = 1.0\nv = 0.0\n[truth]\ngrid_step = 1.0\n\
+         interval = 10\n",
+    )
+    .unwrap();
+    let cases = [
+        (vec!["--truth", "t.txt"], "use a .nc or .csv file name"),
+        (vec!["--truth", "t.nc"], "coarser grid_step"),
+        (
+            vec!["--tracks", "missing/tracks.csv", "--duration", "10ms"],
+            "does not exist",
+        ),
+    ];
+    for (extra, message) in cases {
+        let extra: Vec<String> = extra
+            .iter()
+            .map(|a| match a.contains('.') {
+                true => path(a),
+                false => a.to_string(),
+            })
+            .collect();
+        let mut args = vec!["simulate", scenario.as_str(), "-o"];
+        let output = path("out.raw");
+        args.push(&output);
+        args.extend(extra.iter().map(String::as_str));
+        let out = ebiv(&args);
+        assert!(!out.status.success(), "{extra:?}");
+        assert!(
+            stderr(&out).contains(message),
+            "{extra:?}: {}",
+            stderr(&out)
+        );
+        assert!(!std::path::Path::new(&output).exists(), "{extra:?}");
+    }
+}

@@ -3,7 +3,7 @@
 use clap::Args;
 use ebiv::io::write;
 use ebiv::sim::scenario::{Scenario, EXAMPLES};
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 /// Simulate seeded particles carried by a known flow, imaged onto an event-camera pixel model,
@@ -76,7 +76,31 @@ pub fn run(args: &SimulateArgs) -> Result<(), ebiv::Error> {
         scenario.duration = d;
     }
     let sim = scenario.simulation()?;
+    // Everything that can be checked before the simulation is checked first.
     let out_format = write::format_for_path(&args.output)?;
+    let truth_format = args.truth.as_deref().map(TruthFormat::of).transpose()?;
+    if args.truth.is_some() {
+        scenario
+            .truth
+            .validate_field(sim.geometry, scenario.duration)?;
+    }
+    if args.tracks.is_some() {
+        scenario.truth.validate_tracks(
+            sim.geometry,
+            scenario.duration,
+            scenario.particles.density,
+        )?;
+    }
+    for path in [
+        Some(&args.output),
+        args.truth.as_ref(),
+        args.tracks.as_ref(),
+    ]
+    .into_iter()
+    .flatten()
+    {
+        check_directory(path)?;
+    }
     let bar = crate::progress::fraction_bar("simulating");
     let started = Instant::now();
     let track_interval = args
@@ -111,7 +135,7 @@ pub fn run(args: &SimulateArgs) -> Result<(), ebiv::Error> {
         r.pixels.hot,
         r.dropped_bandwidth
     );
-    if let Some(path) = &args.truth {
+    if let (Some(path), Some(format)) = (&args.truth, truth_format) {
         let end = scenario.start + scenario.duration;
         let field = ebiv::sim::truth::velocity_field(
             sim.flow.as_ref(),
@@ -121,20 +145,9 @@ pub fn run(args: &SimulateArgs) -> Result<(), ebiv::Error> {
             end,
             scenario.truth.interval,
         );
-        match path
-            .extension()
-            .and_then(|e| e.to_str())
-            .map(str::to_ascii_lowercase)
-            .as_deref()
-        {
-            Some("csv") => ebiv::export::write_field_csv(&field, path)?,
-            Some("nc") => ebiv::export::write_field_netcdf(&field, path)?,
-            _ => {
-                return Err(ebiv::Error::parameter(
-                    "truth",
-                    "use a .nc or .csv file name",
-                ))
-            }
+        match format {
+            TruthFormat::Csv => ebiv::export::write_field_csv(&field, path)?,
+            TruthFormat::NetCdf => ebiv::export::write_field_netcdf(&field, path)?,
         }
         println!(
             "wrote {} (true velocity, {} fields of {}x{} vectors)",
@@ -153,6 +166,45 @@ pub fn run(args: &SimulateArgs) -> Result<(), ebiv::Error> {
         );
     }
     Ok(())
+}
+
+/// The file format of the velocity truth, from its file name.
+#[derive(Debug, Clone, Copy)]
+enum TruthFormat {
+    Csv,
+    NetCdf,
+}
+
+impl TruthFormat {
+    fn of(path: &Path) -> Result<TruthFormat, ebiv::Error> {
+        match path
+            .extension()
+            .and_then(|e| e.to_str())
+            .map(str::to_ascii_lowercase)
+            .as_deref()
+        {
+            Some("csv") => Ok(TruthFormat::Csv),
+            Some("nc") => Ok(TruthFormat::NetCdf),
+            _ => Err(ebiv::Error::parameter(
+                "truth",
+                format!("{}: use a .nc or .csv file name", path.display()),
+            )),
+        }
+    }
+}
+
+/// An error unless the directory `path` is to be written in exists.
+fn check_directory(path: &Path) -> Result<(), ebiv::Error> {
+    match path.parent() {
+        Some(dir) if !dir.as_os_str().is_empty() && !dir.is_dir() => Err(ebiv::Error::io(
+            path,
+            std::io::Error::new(
+                std::io::ErrorKind::NotFound,
+                format!("the directory {} does not exist", dir.display()),
+            ),
+        )),
+        _ => Ok(()),
+    }
 }
 
 fn example_text(name: &str) -> Result<&'static str, ebiv::Error> {

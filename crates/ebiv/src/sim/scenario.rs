@@ -103,7 +103,7 @@ impl Default for Sampling {
 #[derive(Debug, Clone, serde::Deserialize)]
 #[serde(deny_unknown_fields, default)]
 pub struct TruthSpec {
-    /// Grid spacing of the velocity truth, px.
+    /// Grid spacing of the velocity truth, px (at least 1; [`TruthSpec::validate_field`]).
     pub grid_step: f64,
     /// Time between truth fields.
     #[serde(deserialize_with = "crate::units::serde_us::deserialize")]
@@ -111,6 +111,83 @@ pub struct TruthSpec {
     /// Time between samples of the particle tracks.
     #[serde(deserialize_with = "crate::units::serde_us::deserialize")]
     pub track_interval: i64,
+}
+
+/// Most values (grid nodes × fields) of a truth velocity series: about 1.4 GB in memory
+/// (a [`crate::field::FieldSeries`] holds 21 bytes per value).
+pub const MAX_TRUTH_VALUES: u64 = 1 << 26;
+
+/// Most particle track points expected (56 bytes each in memory): about 7.5 GB.
+pub const MAX_TRACK_POINTS: u64 = 1 << 27;
+
+impl TruthSpec {
+    /// Check the velocity truth's sampling for a recording of `geometry` lasting
+    /// `duration_us`: a grid step of at least 1 px, an interval of at least 1 µs, and at
+    /// most [`MAX_TRUTH_VALUES`] values in all (checked before the simulation runs, so that
+    /// a mistyped step fails at once instead of exhausting the memory after it).
+    pub fn validate_field(&self, geometry: Geometry, duration_us: i64) -> Result<()> {
+        if !(self.grid_step >= 1.0 && self.grid_step.is_finite()) {
+            return Err(Error::parameter(
+                "truth.grid_step",
+                format!("{} px: must be at least 1 px", self.grid_step),
+            ));
+        }
+        if self.interval < 1 {
+            return Err(Error::parameter(
+                "truth.interval",
+                format!("{} µs: must be at least 1 µs", self.interval),
+            ));
+        }
+        let nodes = |side: u32| ((side as f64 - 0.5) / self.grid_step).floor().max(0.0) + 1.0;
+        let fields = (duration_us.max(0) / self.interval) as f64 + 1.0;
+        let values = nodes(geometry.width) * nodes(geometry.height) * fields;
+        if values > MAX_TRUTH_VALUES as f64 {
+            return Err(Error::parameter(
+                "truth",
+                format!(
+                    "grid_step {} px every {} µs over {} gives {values:.3e} velocity values, \
+                     more than {MAX_TRUTH_VALUES}: use a coarser grid_step or a longer interval",
+                    self.grid_step,
+                    self.interval,
+                    crate::units::format_us(duration_us),
+                ),
+            ));
+        }
+        Ok(())
+    }
+
+    /// Check the particle tracks' sampling for a recording of `geometry` lasting
+    /// `duration_us` seeded with `density` particles per pixel: an interval of at least
+    /// 1 µs and at most about [`MAX_TRACK_POINTS`] points expected.
+    pub fn validate_tracks(
+        &self,
+        geometry: Geometry,
+        duration_us: i64,
+        density: f64,
+    ) -> Result<()> {
+        if self.track_interval < 1 {
+            return Err(Error::parameter(
+                "truth.track_interval",
+                format!("{} µs: must be at least 1 µs", self.track_interval),
+            ));
+        }
+        let particles = density * geometry.width as f64 * geometry.height as f64;
+        let samples = (duration_us.max(0) / self.track_interval) as f64 + 1.0;
+        let points = particles * samples;
+        if points > MAX_TRACK_POINTS as f64 {
+            return Err(Error::parameter(
+                "truth.track_interval",
+                format!(
+                    "{} µs over {} with about {particles:.0} particles in view gives about \
+                     {points:.3e} track points, more than {MAX_TRACK_POINTS}: use a longer \
+                     track_interval or a shorter duration",
+                    self.track_interval,
+                    crate::units::format_us(duration_us),
+                ),
+            ));
+        }
+        Ok(())
+    }
 }
 
 impl Default for TruthSpec {
@@ -281,5 +358,54 @@ mod tests {
         let bad = text.replace("duration = ", "duration = \"ten\" #");
         let err = parse(&bad, "s.toml").unwrap_err().to_string();
         assert!(err.contains("not a time"), "{err}");
+    }
+
+    #[test]
+    fn truth_sampling_too_fine_for_memory_is_refused_before_the_run() {
+        let g = Geometry::new(1280, 720);
+        let ok = TruthSpec::default();
+        ok.validate_field(g, 1_000_000).unwrap();
+        ok.validate_tracks(g, 1_000_000, 0.005).unwrap();
+        // A grid of 1 px is allowed for a short recording, not for a long one.
+        let fine = TruthSpec {
+            grid_step: 1.0,
+            ..ok.clone()
+        };
+        fine.validate_field(g, 10_000).unwrap();
+        let err = fine.validate_field(g, 1_000_000).unwrap_err().to_string();
+        assert!(err.contains("coarser grid_step"), "{err}");
+        for (grid_step, interval, key) in [
+            (0.0, 1000, "truth.grid_step"),
+            (0.5, 1000, "truth.grid_step"),
+            (f64::NAN, 1000, "truth.grid_step"),
+            (16.0, 0, "truth.interval"),
+            (16.0, -5, "truth.interval"),
+        ] {
+            let spec = TruthSpec {
+                grid_step,
+                interval,
+                ..ok.clone()
+            };
+            let err = spec.validate_field(g, 1000).unwrap_err().to_string();
+            assert!(err.contains(key), "{grid_step} {interval}: {err}");
+        }
+        let dense = TruthSpec {
+            track_interval: 1,
+            ..ok.clone()
+        };
+        let err = dense
+            .validate_tracks(g, 100_000, 0.005)
+            .unwrap_err()
+            .to_string();
+        assert!(err.contains("longer track_interval"), "{err}");
+        let none = TruthSpec {
+            track_interval: 0,
+            ..ok
+        };
+        let err = none
+            .validate_tracks(g, 1000, 0.005)
+            .unwrap_err()
+            .to_string();
+        assert!(err.contains("truth.track_interval"), "{err}");
     }
 }
