@@ -29,7 +29,7 @@ fn synthetic_stream() -> EventBuffer {
 }
 
 /// How a synthetic stream is written: a writer for a path and the sensor size.
-type MakeWriter = fn(&Path, Option<Geometry>) -> ebiv::Result<Box<dyn write::EventWriter>>;
+type MakeWriter = fn(&Path, Option<Geometry>) -> ebiv::Result<Box<dyn write::EventWriter + Send>>;
 
 fn encode(make: MakeWriter, file_name: &str, events: &EventBuffer) -> Arc<[u8]> {
     let dir = tempfile::tempdir().expect("temp dir");

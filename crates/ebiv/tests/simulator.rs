@@ -148,3 +148,48 @@ fn same_seed_same_events_on_any_number_of_threads() {
     assert!(one.len() > 100);
     assert_eq!(one, run_with(3));
 }
+
+/// Streaming gives the events of a run in pieces: in time order, their concatenation the
+/// run's events, with the same report and tracks; an error of the sink ends the run.
+#[test]
+fn streamed_events_are_the_runs_in_pieces_and_a_sink_error_stops_it() {
+    let mut sensor = SensorParams::gen4();
+    sensor.bandwidth_ev_per_s = Some(2e6);
+    let sim = simulation(uniform(3.0, 0.5), sensor, 0.01, 60_000);
+    let whole = run(&sim, Some(500.0));
+    let mut pieces = Vec::new();
+    let streamed = sim
+        .run_streaming(Some(500.0), &|_| {}, &mut |events| {
+            pieces.push(events.clone());
+            Ok(())
+        })
+        .unwrap();
+    assert!(streamed.events.is_empty());
+    assert!(pieces.len() > 3, "{} pieces", pieces.len());
+    assert!(pieces.iter().all(|p| !p.is_empty()));
+    let mut joined = ebiv::EventBuffer::new();
+    for p in &pieces {
+        joined.extend_from(p);
+    }
+    assert!(whole.events.len() > 5000, "{} events", whole.events.len());
+    assert!(joined.is_time_sorted());
+    assert_eq!(joined.t, whole.events.t);
+    assert_eq!(joined.x, whole.events.x);
+    assert_eq!(joined.y, whole.events.y);
+    assert_eq!(joined.p, whole.events.p);
+    assert_eq!(
+        format!("{:?}", streamed.readout),
+        format!("{:?}", whole.readout)
+    );
+    assert_eq!(streamed.tracks, whole.tracks);
+
+    let mut calls = 0;
+    let err = sim
+        .run_streaming(None, &|_| {}, &mut |_| {
+            calls += 1;
+            Err(ebiv::Error::parameter("sink", "disk full"))
+        })
+        .unwrap_err();
+    assert!(err.to_string().contains("disk full"), "{err}");
+    assert_eq!(calls, 1);
+}

@@ -107,20 +107,31 @@ pub fn run(args: &SimulateArgs) -> Result<(), ebiv::Error> {
         .tracks
         .as_ref()
         .map(|_| scenario.truth.track_interval as f64);
-    let output = sim.run(track_interval, &|f| bar.set_position((f * 1000.0) as u64))?;
-    bar.finish_and_clear();
-    let seconds = started.elapsed().as_secs_f64();
+    // The events are written as they are read out, beside the simulation, so that memory
+    // holds a window of them rather than the recording (the file appears only once
+    // complete).
     let mut writer = write::create(&args.output, out_format, Some(sim.geometry))?;
-    writer.write(&output.events)?;
+    let (mut n, mut on) = (0usize, 0usize);
+    let mut sink = |events: &ebiv::EventBuffer| {
+        writer.write(events)?;
+        n += events.len();
+        on += events.count_on();
+        Ok(())
+    };
+    let output = sim.run_streaming(
+        track_interval,
+        &|f| bar.set_position((f * 1000.0) as u64),
+        &mut sink,
+    )?;
+    bar.finish_and_clear();
     writer.finish()?;
-    let n = output.events.len();
+    let seconds = started.elapsed().as_secs_f64();
     println!(
-        "simulated {} of {} ({}) in {:.2} s: {n} events ({} ON), {:.2} M events/s generated, {} samples",
+        "simulated {} of {} ({}) in {:.2} s, writing included: {n} events ({on} ON), {:.2} M events/s, {} samples",
         ebiv::units::format_us(scenario.duration),
         sim.geometry,
         origin,
         seconds,
-        output.events.count_on(),
         n as f64 / seconds * 1e-6,
         output.samples
     );

@@ -57,12 +57,13 @@ pub fn format_for_path(path: &Path) -> Result<Format> {
 /// Create a writer for `path` in `format` (see [`format_for_path`]; `.raw` means EVT 3.0,
 /// and [`Format::Evt2`]/[`Format::Evt21`] select the other RAW encodings; AEDAT 4.0 is written
 /// with LZ4, use [`Aedat4Writer::create`] for another compression). `geometry` is stored where
-/// the format has a place for it and is required by EVT 2.x, EVT 3.0 and AEDAT 4.0.
+/// the format has a place for it and is required by EVT 2.x, EVT 3.0 and AEDAT 4.0. The
+/// writer may be moved to another thread (`ebiv simulate` writes beside the simulation).
 pub fn create(
     path: &Path,
     format: Format,
     geometry: Option<Geometry>,
-) -> Result<Box<dyn EventWriter>> {
+) -> Result<Box<dyn EventWriter + Send>> {
     match format {
         Format::Evt3 => Ok(Box::new(Evt3Writer::create(path, geometry)?)),
         Format::Evt2 => Ok(Box::new(Evt2Writer::create(

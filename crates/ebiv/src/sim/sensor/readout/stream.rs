@@ -7,6 +7,7 @@ use super::super::params::TimestampMode;
 use super::filter::{Filters, StreamFilter};
 use super::{key_pixel, key_time, ReadoutReport};
 use super::{pack, readable, readout_filters, stamp};
+use crate::error::Result;
 use crate::event::{EventBuffer, Geometry};
 use crate::sim::sensor::{SensorParams, SimEvent};
 
@@ -49,6 +50,8 @@ pub struct StreamingReadout {
     /// Scratch: where the next key of each bucket goes.
     next: Vec<usize>,
     out: EventBuffer,
+    /// Events read out and handed over by [`StreamingReadout::drain`] so far.
+    drained: u64,
     report: ReadoutReport,
     late: u64,
 }
@@ -70,6 +73,7 @@ impl StreamingReadout {
             starts: Vec::new(),
             next: Vec::new(),
             out: EventBuffer::new(),
+            drained: 0,
             report: ReadoutReport::default(),
             late: 0,
         }
@@ -213,8 +217,22 @@ impl StreamingReadout {
         self.late
     }
 
+    /// Hand the events read out so far and not yet drained to `sink` (in time order, one
+    /// call if there are any), then forget them: a recording streamed to a file keeps only
+    /// a window of its events in memory. [`StreamingReadout::finish`] then returns the rest.
+    pub fn drain(&mut self, sink: &mut dyn FnMut(&EventBuffer) -> Result<()>) -> Result<()> {
+        if self.out.is_empty() {
+            return Ok(());
+        }
+        sink(&self.out)?;
+        self.drained += self.out.len() as u64;
+        self.out.clear();
+        Ok(())
+    }
+
     /// Hand in the events of `parts` and read out every event handed in and not yet read
-    /// out; return all events in time order with the report.
+    /// out; return all events in time order that were not drained
+    /// ([`StreamingReadout::drain`]), with the report of all.
     pub fn finish(self, parts: &mut [Vec<SimEvent>]) -> (EventBuffer, ReadoutReport) {
         let result = self.finish_parts(parts);
         for part in parts.iter_mut() {
@@ -229,7 +247,7 @@ impl StreamingReadout {
         parts: &[P],
     ) -> (EventBuffer, ReadoutReport) {
         self.read_window(parts, f64::INFINITY);
-        self.report.events_out = self.out.len() as u64;
+        self.report.events_out = self.drained + self.out.len() as u64;
         (self.out, self.report)
     }
 }
