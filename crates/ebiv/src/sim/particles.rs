@@ -54,41 +54,51 @@ impl SeedingParams {
                 "particles.density",
                 self.density,
                 self.density >= 0.0 && self.density <= 1.0,
+                "particles per pixel in [0, 1]",
             ),
             (
                 "particles.diameter",
                 self.diameter,
                 self.diameter > 0.1 && self.diameter <= 50.0,
+                "px in (0.1, 50]",
             ),
             (
                 "particles.diameter_sigma",
                 self.diameter_sigma,
                 self.diameter_sigma >= 0.0,
+                "px, at least 0",
             ),
             (
                 "particles.brightness",
                 self.brightness,
                 self.brightness > 0.0,
+                "above 0 (peak irradiance over the background)",
             ),
             (
                 "particles.brightness_sigma",
                 self.brightness_sigma,
                 self.brightness_sigma >= 0.0,
+                "at least 0",
             ),
             (
                 "particles.sheet_thickness",
                 self.sheet_thickness,
                 self.sheet_thickness > 0.0,
+                "px, above 0",
             ),
             (
                 "particles.out_of_plane_sigma",
                 self.out_of_plane_sigma,
                 self.out_of_plane_sigma >= 0.0,
+                "px/ms, at least 0",
             ),
         ];
-        for (name, value, ok) in checks {
+        for (name, value, ok, allowed) in checks {
             if !ok || !value.is_finite() {
-                return Err(Error::parameter(name, format!("{value} is out of range")));
+                return Err(Error::parameter(
+                    name,
+                    format!("{value} is out of range: must be {allowed}"),
+                ));
             }
         }
         Ok(())

@@ -83,34 +83,56 @@ impl Default for IlluminationParams {
 impl IlluminationParams {
     /// Check every value, naming the offending key.
     pub fn validate(&self) -> Result<()> {
-        let bad = |k: &str, v: f64| {
+        let bad = |k: &str, v: f64, allowed: &str| {
             Err(Error::parameter(
                 format!("illumination.{k}"),
-                format!("{v} is out of range"),
+                format!("{v} is out of range: must be {allowed}"),
             ))
         };
         if !(self.background > 0.0 && self.background.is_finite()) {
-            return bad("background", self.background);
+            return bad("background", self.background, "finite and above 0");
         }
         if self.mode == LightMode::Pulsed {
             if !(self.frequency_hz > 0.0 && self.frequency_hz <= 1e6) {
-                return bad("frequency_hz", self.frequency_hz);
+                return bad("frequency_hz", self.frequency_hz, "in (0, 1e6] Hz");
             }
             if !(self.duty > 0.0 && self.duty < 1.0) {
-                return bad("duty", self.duty);
+                return bad("duty", self.duty, "in (0, 1)");
             }
             let period = 1e6 / self.frequency_hz;
+            let longest = 0.5 * self.duty.min(1.0 - self.duty) * period;
             if !(self.edge_us > 0.0 && 2.0 * self.edge_us < self.duty.min(1.0 - self.duty) * period)
             {
-                return bad("edge_us", self.edge_us);
+                return bad(
+                    "edge_us",
+                    self.edge_us,
+                    &format!("above 0 and below {longest} µs (half the shorter of pulse and gap)"),
+                );
             }
         }
-        if !(self.flicker_hz >= 0.0 && (0.0..1.0).contains(&self.flicker_amplitude)) {
-            return bad("flicker_amplitude", self.flicker_amplitude);
+        if !(self.flicker_hz >= 0.0 && self.flicker_hz.is_finite()) {
+            return bad("flicker_hz", self.flicker_hz, "finite and at least 0");
         }
-        for w in &self.walls {
-            if !(w.width > 0.0 && w.height > 0.0 && w.brightness > 0.0) {
-                return bad("walls", w.brightness);
+        if !(0.0..1.0).contains(&self.flicker_amplitude) {
+            return bad("flicker_amplitude", self.flicker_amplitude, "in [0, 1)");
+        }
+        for (i, w) in self.walls.iter().enumerate() {
+            let fields = [
+                ("x", w.x, w.x.is_finite(), "finite"),
+                ("y", w.y, w.y.is_finite(), "finite"),
+                ("width", w.width, w.width > 0.0, "finite and above 0"),
+                ("height", w.height, w.height > 0.0, "finite and above 0"),
+                (
+                    "brightness",
+                    w.brightness,
+                    w.brightness > 0.0,
+                    "finite and above 0",
+                ),
+            ];
+            for (key, value, ok, allowed) in fields {
+                if !(ok && value.is_finite()) {
+                    return bad(&format!("walls[{i}].{key}"), value, allowed);
+                }
             }
         }
         Ok(())
@@ -547,5 +569,53 @@ mod tests {
         assert_eq!(illum.sheet(500.0), 0.0);
         assert_eq!(illum.sheet(1050.0), 1.0);
         assert_eq!(illum.corners(0.0, 1000.0), vec![2.0, 100.0, 102.0, 1000.0]);
+    }
+
+    /// A bad value is named with its key (a wall by its index) and what would be allowed.
+    #[test]
+    fn bad_illumination_names_its_key_and_the_allowed_values() {
+        let wall = Wall {
+            x: 0.0,
+            y: 0.0,
+            width: 4.0,
+            height: 4.0,
+            brightness: 2.0,
+        };
+        let cases = [
+            (
+                IlluminationParams {
+                    mode: LightMode::Pulsed,
+                    frequency_hz: 1000.0,
+                    duty: 0.1,
+                    edge_us: 60.0,
+                    ..Default::default()
+                },
+                "`illumination.edge_us`: 60 is out of range: must be above 0 and below 50 µs",
+            ),
+            (
+                IlluminationParams {
+                    walls: vec![
+                        wall.clone(),
+                        Wall {
+                            height: f64::INFINITY,
+                            ..wall
+                        },
+                    ],
+                    ..Default::default()
+                },
+                "`illumination.walls[1].height`: inf is out of range: must be finite",
+            ),
+            (
+                IlluminationParams {
+                    flicker_hz: f64::NAN,
+                    ..Default::default()
+                },
+                "`illumination.flicker_hz`: NaN is out of range",
+            ),
+        ];
+        for (illum, message) in cases {
+            let err = illum.validate().unwrap_err().to_string();
+            assert!(err.contains(message), "{err}");
+        }
     }
 }

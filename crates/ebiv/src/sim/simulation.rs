@@ -124,7 +124,10 @@ impl Simulation {
         if !(self.duration_us > 0 && self.duration_us <= 3_600_000_000) {
             return Err(Error::parameter(
                 "duration",
-                format!("{} µs is out of range", self.duration_us),
+                format!(
+                    "{} µs is out of range: must be above 0 and at most one hour",
+                    self.duration_us
+                ),
             ));
         }
         if !(self.step_px > 0.0 && self.step_px <= 1.0) {
