@@ -595,7 +595,7 @@ mod tests {
             (
                 IlluminationParams {
                     walls: vec![
-                        wall.clone(),
+                        wall,
                         Wall {
                             height: f64::INFINITY,
                             ..wall
