@@ -5,6 +5,7 @@
 
 mod cmd;
 mod input;
+mod interrupt;
 mod progress;
 
 use clap::{Parser, Subcommand};

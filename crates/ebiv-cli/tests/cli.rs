@@ -548,3 +548,35 @@ fn simulate_refuses_unwritable_or_oversized_outputs_before_running() {
         assert!(!std::path::Path::new(&output).exists(), "{extra:?}");
     }
 }
+
+/// Ctrl-C during `simulate` ends it with a message and removes the unfinished file.
+#[cfg(target_os = "linux")]
+#[test]
+fn an_interrupted_simulation_leaves_no_partial_file() {
+    let dir = tempfile::tempdir().unwrap();
+    let output = dir.path().join("v.raw");
+    let partial = dir.path().join("v.raw.partial");
+    let child = std::process::Command::new(env!("CARGO_BIN_EXE_ebiv"))
+        .args(["simulate", "--example", "vortex", "--duration", "60s", "-o"])
+        .arg(&output)
+        .stdout(std::process::Stdio::null())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    // Wait until events are being written (the file exists and grows).
+    let deadline = std::time::Instant::now() + std::time::Duration::from_secs(60);
+    while std::fs::metadata(&partial).map_or(true, |m| m.len() == 0) {
+        assert!(std::time::Instant::now() < deadline, "no partial file");
+        std::thread::sleep(std::time::Duration::from_millis(20));
+    }
+    // SAFETY: `kill` on our own child's pid with a valid signal.
+    assert_eq!(
+        unsafe { libc::kill(child.id() as libc::pid_t, libc::SIGINT) },
+        0
+    );
+    let out = child.wait_with_output().unwrap();
+    assert!(!out.status.success());
+    let err = stderr(&out);
+    assert!(err.contains("interrupted"), "{err}");
+    assert!(!partial.exists() && !output.exists());
+}

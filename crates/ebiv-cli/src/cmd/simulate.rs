@@ -110,9 +110,14 @@ pub fn run(args: &SimulateArgs) -> Result<(), ebiv::Error> {
     // The events are written as they are read out, beside the simulation, so that memory
     // holds a window of them rather than the recording (the file appears only once
     // complete).
+    // Ctrl-C stops the run at its next batch, so that the unfinished file is removed.
     let mut writer = write::create(&args.output, out_format, Some(sim.geometry))?;
     let (mut n, mut on) = (0usize, 0usize);
+    let catch = crate::interrupt::catch();
     let mut sink = |events: &ebiv::EventBuffer| {
+        if crate::interrupt::requested() {
+            return Err(crate::interrupt::error(&args.output));
+        }
         writer.write(events)?;
         n += events.len();
         on += events.count_on();
@@ -122,8 +127,10 @@ pub fn run(args: &SimulateArgs) -> Result<(), ebiv::Error> {
         track_interval,
         &|f| bar.set_position((f * 1000.0) as u64),
         &mut sink,
-    )?;
+    );
+    drop(catch);
     bar.finish_and_clear();
+    let output = output?;
     writer.finish()?;
     let seconds = started.elapsed().as_secs_f64();
     println!(
@@ -206,16 +213,23 @@ impl TruthFormat {
 
 /// An error unless the directory `path` is to be written in exists.
 fn check_directory(path: &Path) -> Result<(), ebiv::Error> {
-    match path.parent() {
-        Some(dir) if !dir.as_os_str().is_empty() && !dir.is_dir() => Err(ebiv::Error::io(
-            path,
-            std::io::Error::new(
-                std::io::ErrorKind::NotFound,
-                format!("the directory {} does not exist", dir.display()),
-            ),
-        )),
-        _ => Ok(()),
-    }
+    let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) else {
+        return Ok(());
+    };
+    let problem = if dir.is_dir() {
+        return Ok(());
+    } else if dir.exists() {
+        "is not a directory"
+    } else {
+        "does not exist"
+    };
+    Err(ebiv::Error::io(
+        path,
+        std::io::Error::new(
+            std::io::ErrorKind::NotFound,
+            format!("the directory {} {problem}", dir.display()),
+        ),
+    ))
 }
 
 fn example_text(name: &str) -> Result<&'static str, ebiv::Error> {

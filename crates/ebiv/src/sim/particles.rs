@@ -54,19 +54,19 @@ impl SeedingParams {
                 "particles.density",
                 self.density,
                 self.density >= 0.0 && self.density <= 1.0,
-                "particles per pixel in [0, 1]",
+                "in [0, 1] particles per pixel",
             ),
             (
                 "particles.diameter",
                 self.diameter,
                 self.diameter > 0.1 && self.diameter <= 50.0,
-                "px in (0.1, 50]",
+                "in (0.1, 50] px",
             ),
             (
                 "particles.diameter_sigma",
                 self.diameter_sigma,
                 self.diameter_sigma >= 0.0,
-                "px, at least 0",
+                "at least 0 px",
             ),
             (
                 "particles.brightness",
@@ -84,20 +84,20 @@ impl SeedingParams {
                 "particles.sheet_thickness",
                 self.sheet_thickness,
                 self.sheet_thickness > 0.0,
-                "px, above 0",
+                "above 0 px",
             ),
             (
                 "particles.out_of_plane_sigma",
                 self.out_of_plane_sigma,
                 self.out_of_plane_sigma >= 0.0,
-                "px/ms, at least 0",
+                "at least 0 px/ms",
             ),
         ];
         for (name, value, ok, allowed) in checks {
             if !ok || !value.is_finite() {
                 return Err(Error::parameter(
                     name,
-                    format!("{value} is out of range: must be {allowed}"),
+                    format!("{value} is out of range: must be finite and {allowed}"),
                 ));
             }
         }

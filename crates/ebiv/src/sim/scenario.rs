@@ -114,7 +114,8 @@ pub struct TruthSpec {
 }
 
 /// Most values (grid nodes × fields) of a truth velocity series: about 1.4 GB in memory
-/// (a [`crate::field::FieldSeries`] holds 21 bytes per value).
+/// (a [`crate::field::FieldSeries`] holds 21 bytes per value), 1.8 GB while it is written as
+/// NetCDF.
 pub const MAX_TRUTH_VALUES: u64 = 1 << 26;
 
 /// Most particle track points expected (56 bytes each in memory): about 7.5 GB.
@@ -158,7 +159,8 @@ impl TruthSpec {
 
     /// Check the particle tracks' sampling for a recording of `geometry` lasting
     /// `duration_us` seeded with `density` particles per pixel: an interval of at least
-    /// 1 µs and at most about [`MAX_TRACK_POINTS`] points expected.
+    /// 1 µs and at most [`MAX_TRACK_POINTS`] points expected (the mean number of particles in
+    /// view times the samples; a converging flow may gather more in view).
     pub fn validate_tracks(
         &self,
         geometry: Geometry,

@@ -76,7 +76,8 @@ pub struct SimOutput {
 }
 
 /// Where [`Simulation::run_streaming`] hands the events: called from a worker thread while
-/// the bands simulate the next samples.
+/// the bands simulate the next samples, and a last time on the caller's thread once the
+/// simulation has ended.
 pub type EventSink<'a> = dyn FnMut(&EventBuffer) -> Result<()> + Send + 'a;
 
 /// Rows per band: small enough for both cores to stay busy, large enough to amortise.
@@ -160,9 +161,10 @@ impl Simulation {
     /// [`Simulation::run`] handing the events to `sink` as they are read out, a batch of
     /// samples at a time (about 10 ms of the `paper-rate` example), in time order: the
     /// concatenation of its calls is [`Simulation::run`]'s `events`, and memory holds a
-    /// window of events rather than the recording. `sink` runs beside the simulation of the
-    /// next batch (on a worker thread). The output's `events` are empty. An error of `sink`
-    /// ends the run and is returned.
+    /// window of events rather than the recording (the tracks, if asked for, are still
+    /// kept). `sink` runs beside the simulation of the next batch (on a worker thread), and
+    /// for the last events on the caller's thread. The output's `events` are empty. An error
+    /// of `sink` ends the run (after at most the batch being simulated) and is returned.
     pub fn run_streaming(
         &self,
         track_interval_us: Option<f64>,
