@@ -88,7 +88,12 @@ pub fn run(args: &ConvertArgs) -> Result<(), ebiv::Error> {
         crate::progress::bytes_bar(total.filter(|_| reader.position().is_some()), "converting");
     let mut batch = ebiv::EventBuffer::new();
     let mut written = 0u64;
+    // Ctrl-C stops the conversion at its next batch, so that the unfinished file is removed.
+    let catch = crate::interrupt::catch();
     while reader.read_batch(&mut batch)? {
+        if crate::interrupt::requested() {
+            return Err(crate::interrupt::error(&args.output));
+        }
         let past_end = filter
             .t_end
             .is_some_and(|e| batch.t.iter().all(|&t| t >= e + STOP_MARGIN_US) && !batch.is_empty());
@@ -102,6 +107,7 @@ pub fn run(args: &ConvertArgs) -> Result<(), ebiv::Error> {
             break;
         }
     }
+    drop(catch);
     writer.finish()?;
     bar.finish_and_clear();
     let report = reader.report();
