@@ -109,8 +109,7 @@ pub fn run(args: &SimulateArgs) -> Result<(), ebiv::Error> {
         .map(|_| scenario.truth.track_interval as f64);
     // The events are written as they are read out, beside the simulation, so that memory
     // holds a window of them rather than the recording (the file appears only once
-    // complete).
-    // Ctrl-C stops the run at its next batch, so that the unfinished file is removed.
+    // complete); Ctrl-C stops the run at its next batch, and the unfinished file is removed.
     let mut writer = write::create(&args.output, out_format, Some(sim.geometry))?;
     let (mut n, mut on) = (0usize, 0usize);
     let catch = crate::interrupt::catch();
