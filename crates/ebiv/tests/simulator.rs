@@ -193,3 +193,25 @@ fn streamed_events_are_the_runs_in_pieces_and_a_sink_error_stops_it() {
     assert!(err.to_string().contains("disk full"), "{err}");
     assert_eq!(calls, 1);
 }
+
+/// A flow too fast to simulate, or a seeding that would need too many particles, is refused
+/// with the key to change (a speed of 1e300 px/ms used to panic on a capacity overflow).
+#[test]
+fn absurd_speeds_and_particle_counts_are_refused_before_the_run() {
+    let spec: FlowSpec = toml::from_str("type = \"uniform\"\nu = 1e300\nv = 0.0\n").unwrap();
+    for flow in [spec.build().unwrap(), uniform(2e4, 0.0)] {
+        let sim = simulation(flow, SensorParams::ideal(), 0.01, 1000);
+        let err = sim.run(None, &|_| {}).unwrap_err().to_string();
+        assert!(
+            err.contains("`flow`") && err.contains("largest speed"),
+            "{err}"
+        );
+    }
+    let mut sim = simulation(uniform(5000.0, 0.0), SensorParams::ideal(), 1.0, 1000);
+    sim.max_step_us = 1000.0;
+    let err = sim.validate().unwrap_err().to_string();
+    assert!(err.contains("`particles.density`"), "{err}");
+    // The same seeding with short steps is fine.
+    sim.max_step_us = 1.0;
+    sim.validate().unwrap();
+}

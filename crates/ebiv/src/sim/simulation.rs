@@ -80,6 +80,12 @@ pub struct SimOutput {
 /// simulation has ended.
 pub type EventSink<'a> = dyn FnMut(&EventBuffer) -> Result<()> + Send + 'a;
 
+/// Largest flow speed simulated, px/ms.
+const MAX_SPEED: f64 = 1e4;
+
+/// Most particles seeded (about 56 bytes each, plus their cached images).
+const MAX_PARTICLES: u64 = 1 << 25;
+
 /// Rows per band: small enough for both cores to stay busy, large enough to amortise.
 const BAND_ROWS: u32 = 60;
 
@@ -143,7 +149,40 @@ impl Simulation {
                 format!("{} must be in [0.5, 1000]", self.max_step_us),
             ));
         }
+        let (w, h) = (g.width as f64, g.height as f64);
+        let speed = self.flow.max_speed(w, h, self.start_us as f64);
+        if speed.is_nan() || speed > MAX_SPEED {
+            return Err(Error::parameter(
+                "flow",
+                format!(
+                    "its largest speed over the sensor at the start, {speed:.4e} px/ms, is beyond \
+                     {MAX_SPEED} px/ms (10 px per µs, far past what 1 µs time stamps resolve)"
+                ),
+            ));
+        }
+        let margin = self.seeding_margin();
+        let particles = self.seeding.density * (w + 2.0 * margin) * (h + 2.0 * margin);
+        if particles > MAX_PARTICLES as f64 {
+            return Err(Error::parameter(
+                "particles.density",
+                format!(
+                    "{} particles per pixel over the sensor and its seeding margin of \
+                     {margin} px (which grows with the flow's speed and max_step_us) make \
+                     {particles:.3e} particles, more than {MAX_PARTICLES}",
+                    self.seeding.density
+                ),
+            ));
+        }
         Ok(())
+    }
+
+    /// How far beyond the sensor particles are seeded, px: an image's reach plus the
+    /// distance the fastest particle moves in the longest time step, so that particles enter
+    /// the view from the seeded volume.
+    fn seeding_margin(&self) -> f64 {
+        let (w, h) = (self.geometry.width as f64, self.geometry.height as f64);
+        let speed = self.flow.max_speed(w, h, self.start_us as f64).max(1e-6);
+        (3.0 * self.seeding.diameter + 2.0 + speed * self.max_step_us * 1e-3).ceil()
     }
 
     /// Run the simulation. `track_interval_us` > 0 records particle tracks; `progress` is
@@ -186,8 +225,7 @@ impl Simulation {
         let (w, h) = (g.width as f64, g.height as f64);
         let t0 = self.start_us as f64;
         let t_end = t0 + self.duration_us as f64;
-        let speed = self.flow.max_speed(w, h, t0).max(1e-6);
-        let margin = (3.0 * self.seeding.diameter + 2.0 + speed * self.max_step_us * 1e-3).ceil();
+        let margin = self.seeding_margin();
         let mut cloud = ParticleCloud::seed(&self.seeding, w, h, margin, self.seed);
         // The sensor starts adapted to the scene at t0: each band renders its first sample
         // and builds its pixels adapted to it, in one pass.
