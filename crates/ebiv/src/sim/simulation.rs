@@ -83,8 +83,10 @@ pub type EventSink<'a> = dyn FnMut(&EventBuffer) -> Result<()> + Send + 'a;
 /// Largest flow speed simulated, px/ms.
 const MAX_SPEED: f64 = 1e4;
 
-/// Most particles seeded (about 56 bytes each, plus their cached images).
-const MAX_PARTICLES: u64 = 1 << 25;
+/// Most particles seeded: about 4 GB for the particles (56 bytes each), their cached images
+/// (88) and one sample of their images in each of the two batches in flight (2 × 48;
+/// [`samples_per_batch`]).
+const MAX_PARTICLES: u64 = 1 << 24;
 
 /// Rows per band: small enough for both cores to stay busy, large enough to amortise.
 const BAND_ROWS: u32 = 60;
@@ -94,8 +96,25 @@ const BAND_ROWS: u32 = 60;
 /// [`Simulation::run`]).
 const READOUT_HOLD_US: f64 = 1.0;
 
-/// Samples each band processes per parallel task.
+/// Samples each band processes per parallel task, unless the particle images of a batch
+/// would exceed [`BATCH_IMAGE_BYTES`] ([`samples_per_batch`]).
 const SAMPLES_PER_BATCH: usize = 64;
+
+/// Memory the particle images of the two batches in flight may take, bytes: a scene of many
+/// particles is simulated in shorter batches rather than running out of memory (the
+/// `paper-rate` example's 1 400 particles take 8.6 MB at 64 samples per batch).
+const BATCH_IMAGE_BYTES: usize = 1 << 30;
+
+/// Samples per batch for a scene of `particles` particles: [`SAMPLES_PER_BATCH`], or fewer
+/// (at least one) so that two batches of their images fit in [`BATCH_IMAGE_BYTES`]. The
+/// noise is drawn batch by batch, so this is part of what a scenario's events depend on (a
+/// function of the scenario alone, not of the machine).
+fn samples_per_batch(particles: usize) -> usize {
+    let per_sample = particles
+        .max(1)
+        .saturating_mul(2 * std::mem::size_of::<Spot>());
+    (BATCH_IMAGE_BYTES / per_sample).clamp(1, SAMPLES_PER_BATCH)
+}
 
 /// One band of rows with its sensor pixels and the irradiance of its last sample.
 struct Band {
@@ -251,9 +270,10 @@ impl Simulation {
         // stay in cache and the scheduling cost is paid once per batch. Each band sees exactly
         // the same sequence of samples as one step at a time would give it. The next batch's
         // particle motion is computed while the bands process the current one.
+        let batch_samples = samples_per_batch(cloud.particles.len());
         let mut fill = |batch: &mut Vec<Sample>| -> usize {
             let mut used = 0;
-            while used < SAMPLES_PER_BATCH && t < t_end {
+            while used < batch_samples && t < t_end {
                 if let Some(interval) = track_interval_us.filter(|&i| i > 0.0) {
                     while next_track <= t {
                         self.record_tracks(&cloud.particles, t, &mut tracks);
@@ -602,7 +622,7 @@ impl Band {
 
 #[cfg(test)]
 mod tests {
-    use super::{ImageCache, Particle, ParticleRenderer, SeedingParams};
+    use super::{samples_per_batch, ImageCache, Particle, ParticleRenderer, SeedingParams};
     use crate::event::Geometry;
     use crate::sim::scene::IlluminationParams;
 
@@ -648,5 +668,16 @@ mod tests {
         check(&p, 1.0);
         p.x -= 3.0;
         check(&p, 1.0);
+    }
+
+    /// Scenes of many particles are simulated in shorter batches; the examples keep 64.
+    #[test]
+    fn batches_shrink_for_scenes_of_many_particles() {
+        assert_eq!(samples_per_batch(0), 64);
+        assert_eq!(samples_per_batch(1_400), 64);
+        assert_eq!(samples_per_batch(170_000), 64);
+        assert_eq!(samples_per_batch(1_000_000), 11);
+        assert_eq!(samples_per_batch(1 << 24), 1);
+        assert_eq!(samples_per_batch(usize::MAX / 4096), 1);
     }
 }
