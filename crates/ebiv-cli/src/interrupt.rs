@@ -1,33 +1,61 @@
 //! Ctrl-C (SIGINT) and SIGTERM while a command writes a long output: the first signal asks the
-//! command to stop at its next check, so that it ends with an error and its unfinished file
-//! (written as `NAME.partial`) is removed; a second signal ends the process at once.
+//! command to stop at its next check, so that it ends with an error and its unfinished files
+//! (written under temporary names) are removed, and the process then ends by that signal, as
+//! if it had not been caught (shells and scripts see the interrupt); a second signal ends the
+//! process at once. A signal the parent set to be ignored stays ignored.
 
-use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::atomic::{AtomicI32, Ordering};
 
-/// Set by the first SIGINT or SIGTERM while a [`Catch`] is alive.
-static REQUESTED: AtomicBool = AtomicBool::new(false);
+/// The first SIGINT or SIGTERM received while a [`Catch`] is alive, or 0.
+static RECEIVED: AtomicI32 = AtomicI32::new(0);
 
-/// While alive, SIGINT and SIGTERM set [`requested`] instead of ending the process (a second
-/// one still ends it); dropping it restores the default handling.
-pub struct Catch(());
+#[cfg(unix)]
+const SIGNALS: [libc::c_int; 2] = [libc::SIGINT, libc::SIGTERM];
 
-/// Catch SIGINT and SIGTERM until the returned guard is dropped.
-pub fn catch() -> Catch {
-    REQUESTED.store(false, Ordering::SeqCst);
+/// While alive, SIGINT and SIGTERM are recorded ([`requested`]) instead of ending the process
+/// (a second one still ends it); dropping it restores the handling it replaced.
+pub struct Catch {
     #[cfg(unix)]
-    // SAFETY: `on_signal` only touches an atomic and calls `_exit`, both async-signal-safe;
-    // the dispositions are valid for these signals.
-    unsafe {
-        let handler = on_signal as extern "C" fn(libc::c_int) as libc::sighandler_t;
-        libc::signal(libc::SIGINT, handler);
-        libc::signal(libc::SIGTERM, handler);
+    previous: Vec<(libc::c_int, libc::sigaction)>,
+}
+
+/// Catch SIGINT and SIGTERM until the returned guard is dropped; a signal whose disposition is
+/// "ignore" (a background job of a shell without job control) is left alone.
+pub fn catch() -> Catch {
+    RECEIVED.store(0, Ordering::SeqCst);
+    #[cfg(unix)]
+    {
+        let mut previous = Vec::new();
+        for signal in SIGNALS {
+            // SAFETY: `sigaction` with a null new action only reads the current one into
+            // `old`, which is a valid, zeroed `sigaction`.
+            let mut old: libc::sigaction = unsafe { std::mem::zeroed() };
+            if unsafe { libc::sigaction(signal, std::ptr::null(), &mut old) } != 0
+                || old.sa_sigaction == libc::SIG_IGN
+            {
+                continue;
+            }
+            // SAFETY: a zeroed `sigaction` with an empty mask, no flags but SA_RESTART, and a
+            // handler that only touches an atomic and calls `_exit` (async-signal-safe).
+            unsafe {
+                let mut action: libc::sigaction = std::mem::zeroed();
+                action.sa_sigaction = on_signal as extern "C" fn(libc::c_int) as usize;
+                action.sa_flags = libc::SA_RESTART;
+                libc::sigemptyset(&mut action.sa_mask);
+                if libc::sigaction(signal, &action, std::ptr::null_mut()) == 0 {
+                    previous.push((signal, old));
+                }
+            }
+        }
+        Catch { previous }
     }
-    Catch(())
+    #[cfg(not(unix))]
+    Catch {}
 }
 
 /// Whether a SIGINT or SIGTERM arrived since [`catch`].
 pub fn requested() -> bool {
-    REQUESTED.load(Ordering::SeqCst)
+    RECEIVED.load(Ordering::SeqCst) != 0
 }
 
 /// An error for a command stopped by a signal while writing `path`.
@@ -36,26 +64,42 @@ pub fn error(path: &std::path::Path) -> ebiv::Error {
         path,
         std::io::Error::new(
             std::io::ErrorKind::Interrupted,
-            "interrupted; the unfinished file was removed",
+            "interrupted; no unfinished file is left",
         ),
     )
 }
 
+/// If a caught signal arrived, end the process by it now, with its default action (after the
+/// command has cleaned up and reported): the exit status then says the signal, as shells
+/// expect. Returns otherwise.
+pub fn resend_caught_signal() {
+    let signal = RECEIVED.load(Ordering::SeqCst);
+    #[cfg(unix)]
+    if signal != 0 {
+        // SAFETY: SIG_DFL is a valid disposition; raising a signal the process received.
+        unsafe {
+            libc::signal(signal, libc::SIG_DFL);
+            libc::raise(signal);
+        }
+    }
+    #[cfg(not(unix))]
+    let _ = signal;
+}
+
 #[cfg(unix)]
-extern "C" fn on_signal(_: libc::c_int) {
-    if REQUESTED.swap(true, Ordering::SeqCst) {
-        // SAFETY: `_exit` is async-signal-safe; 130 is the shell's code for an interrupt.
-        unsafe { libc::_exit(130) };
+extern "C" fn on_signal(signal: libc::c_int) {
+    if RECEIVED.swap(signal, Ordering::SeqCst) != 0 {
+        // SAFETY: `_exit` is async-signal-safe; 128 + signal is the shell's code for it.
+        unsafe { libc::_exit(128 + signal) };
     }
 }
 
 impl Drop for Catch {
     fn drop(&mut self) {
         #[cfg(unix)]
-        // SAFETY: SIG_DFL is a valid disposition for these signals.
-        unsafe {
-            libc::signal(libc::SIGINT, libc::SIG_DFL);
-            libc::signal(libc::SIGTERM, libc::SIG_DFL);
+        for (signal, old) in &self.previous {
+            // SAFETY: restores the disposition `sigaction` reported for this signal.
+            unsafe { libc::sigaction(*signal, old, std::ptr::null_mut()) };
         }
     }
 }

@@ -86,6 +86,9 @@ fn main() -> ExitCode {
         Ok(()) => ExitCode::SUCCESS,
         Err(e) => {
             eprintln!("error: {e}");
+            // Stopped by Ctrl-C or SIGTERM (after removing its unfinished output): end by that
+            // signal, so that a shell loop running ebiv stops too.
+            interrupt::resend_caught_signal();
             ExitCode::FAILURE
         }
     }

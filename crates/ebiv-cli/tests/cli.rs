@@ -549,24 +549,54 @@ fn simulate_refuses_unwritable_or_oversized_outputs_before_running() {
     }
 }
 
-/// Ctrl-C during `simulate` ends it with a message and removes the unfinished file.
+/// Start `ebiv simulate --example vortex` for `duration` into `dir`, optionally with SIGINT
+/// ignored (as a shell without job control starts background jobs); send SIGINT once the
+/// events file is being written; return the exit status, standard error and whether the
+/// file and its temporary exist afterwards.
 #[cfg(target_os = "linux")]
-#[test]
-fn an_interrupted_simulation_leaves_no_partial_file() {
-    let dir = tempfile::tempdir().unwrap();
-    let output = dir.path().join("v.raw");
-    let partial = dir.path().join("v.raw.partial");
-    let child = std::process::Command::new(env!("CARGO_BIN_EXE_ebiv"))
-        .args(["simulate", "--example", "vortex", "--duration", "60s", "-o"])
+fn interrupt_simulation(
+    dir: &std::path::Path,
+    duration: &str,
+    ignore_sigint: bool,
+) -> (std::process::ExitStatus, String, bool, bool) {
+    use std::os::unix::process::CommandExt;
+    let output = dir.join("v.raw");
+    let partial = dir.join("v.raw.partial");
+    let mut command = std::process::Command::new(env!("CARGO_BIN_EXE_ebiv"));
+    command
+        .args([
+            "simulate",
+            "--example",
+            "vortex",
+            "--duration",
+            duration,
+            "-o",
+        ])
         .arg(&output)
         .stdout(std::process::Stdio::null())
-        .stderr(std::process::Stdio::piped())
-        .spawn()
-        .unwrap();
-    // Wait until events are being written (the file exists and grows).
+        .stderr(std::process::Stdio::piped());
+    if ignore_sigint {
+        // SAFETY: between fork and exec only `signal` runs, which is async-signal-safe.
+        unsafe {
+            command.pre_exec(|| {
+                libc::signal(libc::SIGINT, libc::SIG_IGN);
+                Ok(())
+            });
+        }
+    }
+    let mut child = command.spawn().unwrap();
+    // Wait until events are being written (the temporary file exists and grows).
     let deadline = std::time::Instant::now() + std::time::Duration::from_secs(60);
     while std::fs::metadata(&partial).map_or(true, |m| m.len() == 0) {
-        assert!(std::time::Instant::now() < deadline, "no partial file");
+        if std::time::Instant::now() > deadline {
+            child.kill().unwrap();
+            panic!("no partial file");
+        }
+        if child.try_wait().unwrap().is_some() {
+            // Finished before it could be interrupted (only a short run can).
+            let out = child.wait_with_output().unwrap();
+            return (out.status, stderr(&out), output.exists(), partial.exists());
+        }
         std::thread::sleep(std::time::Duration::from_millis(20));
     }
     // SAFETY: `kill` on our own child's pid with a valid signal.
@@ -575,8 +605,24 @@ fn an_interrupted_simulation_leaves_no_partial_file() {
         0
     );
     let out = child.wait_with_output().unwrap();
-    assert!(!out.status.success());
-    let err = stderr(&out);
+    (out.status, stderr(&out), output.exists(), partial.exists())
+}
+
+/// Ctrl-C during `simulate` ends it with a message, removes the unfinished file and ends the
+/// process by SIGINT (so that a shell loop stops too); with SIGINT ignored by its parent, the
+/// simulation is not interrupted.
+#[cfg(target_os = "linux")]
+#[test]
+fn an_interrupted_simulation_leaves_no_partial_file() {
+    use std::os::unix::process::ExitStatusExt;
+    let dir = tempfile::tempdir().unwrap();
+    let (status, err, file, partial) = interrupt_simulation(dir.path(), "60s", false);
+    assert_eq!(status.signal(), Some(libc::SIGINT), "{status:?}: {err}");
     assert!(err.contains("interrupted"), "{err}");
-    assert!(!partial.exists() && !output.exists());
+    assert!(!file && !partial);
+
+    let dir = tempfile::tempdir().unwrap();
+    let (status, err, file, partial) = interrupt_simulation(dir.path(), "30ms", true);
+    assert!(status.success(), "{status:?}: {err}");
+    assert!(file && !partial);
 }

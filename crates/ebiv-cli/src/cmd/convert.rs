@@ -82,14 +82,16 @@ pub fn run(args: &ConvertArgs) -> Result<(), ebiv::Error> {
     if let Some(t) = filter.t_start {
         reader.skip_to(t)?;
     }
+    // Ctrl-C stops the conversion at its next batch, and the unfinished file is removed; the
+    // guard is declared before the writer, so that it is still in place while the writer
+    // removes its file, and lives until the file is complete.
+    let catch = crate::interrupt::catch();
     let mut writer = write::create(&args.output, out_format, geometry)?;
     let total = std::fs::metadata(&args.input).ok().map(|m| m.len());
     let bar =
         crate::progress::bytes_bar(total.filter(|_| reader.position().is_some()), "converting");
     let mut batch = ebiv::EventBuffer::new();
     let mut written = 0u64;
-    // Ctrl-C stops the conversion at its next batch, so that the unfinished file is removed.
-    let catch = crate::interrupt::catch();
     while reader.read_batch(&mut batch)? {
         if crate::interrupt::requested() {
             return Err(crate::interrupt::error(&args.output));
@@ -107,8 +109,11 @@ pub fn run(args: &ConvertArgs) -> Result<(), ebiv::Error> {
             break;
         }
     }
-    drop(catch);
+    if crate::interrupt::requested() {
+        return Err(crate::interrupt::error(&args.output));
+    }
     writer.finish()?;
+    drop(catch);
     bar.finish_and_clear();
     let report = reader.report();
     eprintln!(

@@ -109,14 +109,18 @@ pub fn run(args: &SimulateArgs) -> Result<(), ebiv::Error> {
         .map(|_| scenario.truth.track_interval as f64);
     // The events are written as they are read out, beside the simulation, so that memory
     // holds a window of them rather than the recording (the file appears only once
-    // complete); Ctrl-C stops the run at its next batch, and the unfinished file is removed.
+    // complete); Ctrl-C stops the run at its next batch or before the next output, and the
+    // unfinished file is removed. The guard lives to the end of the command and is declared
+    // before the writer, so that it is still in place while the writer removes its file.
+    let _catch = crate::interrupt::catch();
+    let stop_if_interrupted = |path: &Path| match crate::interrupt::requested() {
+        true => Err(crate::interrupt::error(path)),
+        false => Ok(()),
+    };
     let mut writer = write::create(&args.output, out_format, Some(sim.geometry))?;
     let (mut n, mut on) = (0usize, 0usize);
-    let catch = crate::interrupt::catch();
     let mut sink = |events: &ebiv::EventBuffer| {
-        if crate::interrupt::requested() {
-            return Err(crate::interrupt::error(&args.output));
-        }
+        stop_if_interrupted(&args.output)?;
         writer.write(events)?;
         n += events.len();
         on += events.count_on();
@@ -127,9 +131,9 @@ pub fn run(args: &SimulateArgs) -> Result<(), ebiv::Error> {
         &|f| bar.set_position((f * 1000.0) as u64),
         &mut sink,
     );
-    drop(catch);
     bar.finish_and_clear();
     let output = output?;
+    stop_if_interrupted(&args.output)?;
     writer.finish()?;
     let seconds = started.elapsed().as_secs_f64();
     println!(
@@ -153,6 +157,7 @@ pub fn run(args: &SimulateArgs) -> Result<(), ebiv::Error> {
         r.dropped_bandwidth
     );
     if let (Some(path), Some(format)) = (&args.truth, truth_format) {
+        stop_if_interrupted(path)?;
         let end = scenario.start + scenario.duration;
         let field = ebiv::sim::truth::velocity_field(
             sim.flow.as_ref(),
@@ -175,6 +180,7 @@ pub fn run(args: &SimulateArgs) -> Result<(), ebiv::Error> {
         );
     }
     if let Some(path) = &args.tracks {
+        stop_if_interrupted(path)?;
         ebiv::export::write_tracks_csv(&output.tracks, path)?;
         println!(
             "wrote {} ({} track points)",

@@ -84,7 +84,7 @@ pub type EventSink<'a> = dyn FnMut(&EventBuffer) -> Result<()> + Send + 'a;
 const MAX_SPEED: f64 = 1e4;
 
 /// Most particles seeded: about 4 GB for the particles (56 bytes each), their cached images
-/// (88) and one sample of their images in each of the two batches in flight (2 × 48;
+/// (80) and one sample of their images in each of the two batches in flight (2 × 48;
 /// [`samples_per_batch`]).
 const MAX_PARTICLES: u64 = 1 << 24;
 
@@ -100,9 +100,11 @@ const READOUT_HOLD_US: f64 = 1.0;
 /// would exceed [`BATCH_IMAGE_BYTES`] ([`samples_per_batch`]).
 const SAMPLES_PER_BATCH: usize = 64;
 
-/// Memory the particle images of the two batches in flight may take, bytes: a scene of many
-/// particles is simulated in shorter batches rather than running out of memory (the
-/// `paper-rate` example's 1 400 particles take 8.6 MB at 64 samples per batch).
+/// Memory the particle images of the two batches in flight should take, bytes: a scene of
+/// many particles is simulated in shorter batches rather than running out of memory (the
+/// `paper-rate` example's 1 400 particles take 8.6 MB at 64 samples per batch). Beyond about
+/// 11 M particles one sample per batch takes more (1.6 GB at the most particles seeded,
+/// [`MAX_PARTICLES`]).
 const BATCH_IMAGE_BYTES: usize = 1 << 30;
 
 /// Samples per batch for a scene of `particles` particles: [`SAMPLES_PER_BATCH`], or fewer
