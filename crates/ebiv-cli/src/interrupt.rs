@@ -12,7 +12,7 @@ static RECEIVED: AtomicI32 = AtomicI32::new(0);
 #[cfg(unix)]
 const SIGNALS: [libc::c_int; 2] = [libc::SIGINT, libc::SIGTERM];
 
-/// While alive, SIGINT and SIGTERM are recorded ([`requested`]) instead of ending the process
+/// While alive, SIGINT and SIGTERM are recorded ([`check`]) instead of ending the process
 /// (a second one still ends it); dropping it restores the handling it replaced.
 pub struct Catch {
     #[cfg(unix)]
@@ -53,20 +53,19 @@ pub fn catch() -> Catch {
     Catch {}
 }
 
-/// Whether a SIGINT or SIGTERM arrived since [`catch`].
-pub fn requested() -> bool {
-    RECEIVED.load(Ordering::SeqCst) != 0
-}
-
-/// An error for a command stopped by a signal while writing `path`.
-pub fn error(path: &std::path::Path) -> ebiv::Error {
-    ebiv::Error::io(
+/// An error if a SIGINT or SIGTERM arrived since [`catch`]: the command writing `path` is to
+/// stop (its unfinished files are removed as it returns the error).
+pub fn check(path: &std::path::Path) -> Result<(), ebiv::Error> {
+    if RECEIVED.load(Ordering::SeqCst) == 0 {
+        return Ok(());
+    }
+    Err(ebiv::Error::io(
         path,
         std::io::Error::new(
             std::io::ErrorKind::Interrupted,
             "interrupted; no unfinished file is left",
         ),
-    )
+    ))
 }
 
 /// If a caught signal arrived, end the process by it now, with its default action (after the

@@ -93,9 +93,7 @@ pub fn run(args: &ConvertArgs) -> Result<(), ebiv::Error> {
     let mut batch = ebiv::EventBuffer::new();
     let mut written = 0u64;
     while reader.read_batch(&mut batch)? {
-        if crate::interrupt::requested() {
-            return Err(crate::interrupt::error(&args.output));
-        }
+        crate::interrupt::check(&args.output)?;
         let past_end = filter
             .t_end
             .is_some_and(|e| batch.t.iter().all(|&t| t >= e + STOP_MARGIN_US) && !batch.is_empty());
@@ -109,9 +107,7 @@ pub fn run(args: &ConvertArgs) -> Result<(), ebiv::Error> {
             break;
         }
     }
-    if crate::interrupt::requested() {
-        return Err(crate::interrupt::error(&args.output));
-    }
+    crate::interrupt::check(&args.output)?;
     writer.finish()?;
     drop(catch);
     bar.finish_and_clear();

@@ -113,14 +113,10 @@ pub fn run(args: &SimulateArgs) -> Result<(), ebiv::Error> {
     // unfinished file is removed. The guard lives to the end of the command and is declared
     // before the writer, so that it is still in place while the writer removes its file.
     let _catch = crate::interrupt::catch();
-    let stop_if_interrupted = |path: &Path| match crate::interrupt::requested() {
-        true => Err(crate::interrupt::error(path)),
-        false => Ok(()),
-    };
     let mut writer = write::create(&args.output, out_format, Some(sim.geometry))?;
     let (mut n, mut on) = (0usize, 0usize);
     let mut sink = |events: &ebiv::EventBuffer| {
-        stop_if_interrupted(&args.output)?;
+        crate::interrupt::check(&args.output)?;
         writer.write(events)?;
         n += events.len();
         on += events.count_on();
@@ -133,7 +129,7 @@ pub fn run(args: &SimulateArgs) -> Result<(), ebiv::Error> {
     );
     bar.finish_and_clear();
     let output = output?;
-    stop_if_interrupted(&args.output)?;
+    crate::interrupt::check(&args.output)?;
     writer.finish()?;
     let seconds = started.elapsed().as_secs_f64();
     println!(
@@ -157,7 +153,7 @@ pub fn run(args: &SimulateArgs) -> Result<(), ebiv::Error> {
         r.dropped_bandwidth
     );
     if let (Some(path), Some(format)) = (&args.truth, truth_format) {
-        stop_if_interrupted(path)?;
+        crate::interrupt::check(path)?;
         let end = scenario.start + scenario.duration;
         let field = ebiv::sim::truth::velocity_field(
             sim.flow.as_ref(),
@@ -180,7 +176,7 @@ pub fn run(args: &SimulateArgs) -> Result<(), ebiv::Error> {
         );
     }
     if let Some(path) = &args.tracks {
-        stop_if_interrupted(path)?;
+        crate::interrupt::check(path)?;
         ebiv::export::write_tracks_csv(&output.tracks, path)?;
         println!(
             "wrote {} ({} track points)",

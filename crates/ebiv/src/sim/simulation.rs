@@ -170,8 +170,7 @@ impl Simulation {
                 format!("{} must be in [0.5, 1000]", self.max_step_us),
             ));
         }
-        let (w, h) = (g.width as f64, g.height as f64);
-        let speed = self.flow.max_speed(w, h, self.start_us as f64);
+        let speed = self.start_speed();
         if speed.is_nan() || speed > MAX_SPEED {
             return Err(Error::parameter(
                 "flow",
@@ -181,7 +180,8 @@ impl Simulation {
                 ),
             ));
         }
-        let margin = self.seeding_margin();
+        let margin = self.seeding_margin(speed);
+        let (w, h) = (g.width as f64, g.height as f64);
         let particles = self.seeding.density * (w + 2.0 * margin) * (h + 2.0 * margin);
         if particles > MAX_PARTICLES as f64 {
             return Err(Error::parameter(
@@ -197,12 +197,18 @@ impl Simulation {
         Ok(())
     }
 
-    /// How far beyond the sensor particles are seeded, px: an image's reach plus the
-    /// distance the fastest particle moves in the longest time step, so that particles enter
-    /// the view from the seeded volume.
-    fn seeding_margin(&self) -> f64 {
+    /// The flow's largest speed over the sensor at the start, px/ms.
+    fn start_speed(&self) -> f64 {
         let (w, h) = (self.geometry.width as f64, self.geometry.height as f64);
-        let speed = self.flow.max_speed(w, h, self.start_us as f64).max(1e-6);
+        self.flow.max_speed(w, h, self.start_us as f64)
+    }
+
+    /// How far beyond the sensor particles are seeded, px, for a flow whose largest speed is
+    /// `speed` ([`Simulation::start_speed`]): an image's reach plus the distance the fastest
+    /// particle moves in the longest time step, so that particles enter the view from the
+    /// seeded volume.
+    fn seeding_margin(&self, speed: f64) -> f64 {
+        let speed = speed.max(1e-6);
         (3.0 * self.seeding.diameter + 2.0 + speed * self.max_step_us * 1e-3).ceil()
     }
 
@@ -246,7 +252,7 @@ impl Simulation {
         let (w, h) = (g.width as f64, g.height as f64);
         let t0 = self.start_us as f64;
         let t_end = t0 + self.duration_us as f64;
-        let margin = self.seeding_margin();
+        let margin = self.seeding_margin(self.start_speed());
         let mut cloud = ParticleCloud::seed(&self.seeding, w, h, margin, self.seed);
         // The sensor starts adapted to the scene at t0: each band renders its first sample
         // and builds its pixels adapted to it, in one pass.
