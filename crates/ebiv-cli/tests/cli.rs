@@ -499,6 +499,33 @@ fn the_thread_count_is_chosen_and_does_not_change_results() {
         stdout(&out)
     );
 
+    // A scenario file instead of an example; its duration is the bench's.
+    std::fs::write(
+        path("bench.toml"),
+        "duration = \"10s\"\n[sensor]\nwidth = 64\nheight = 48\n\
+         [flow]\ntype = \"uniform\"\nu = 1.0\nv = 0.0\n",
+    )
+    .unwrap();
+    let out = ebiv(&[
+        "bench",
+        "simulate",
+        "--scenario",
+        &path("bench.toml"),
+        "--duration",
+        "2ms",
+        "--repeat",
+        "1",
+    ]);
+    assert!(out.status.success(), "{}", stderr(&out));
+    let text = stdout(&out);
+    assert!(
+        text.contains("bench.toml: 64x48 for 2.000 ms") && text.contains("s of CPU time"),
+        "{text}"
+    );
+    let out = ebiv(&["bench", "simulate", "--scenario", &path("missing.toml")]);
+    assert!(!out.status.success());
+    assert!(stderr(&out).contains("missing.toml"), "{}", stderr(&out));
+
     let out = ebiv(&["--threads", "0", "info", &path("one.raw")]);
     assert!(!out.status.success());
     assert!(stderr(&out).contains("--threads"), "{}", stderr(&out));

@@ -33,8 +33,12 @@ pub enum BenchWhat {
 #[derive(Debug, Args)]
 pub struct SimulateBenchArgs {
     /// Ready scenario to run (see `ebiv simulate --list-examples`).
-    #[arg(long, default_value = "paper-rate")]
+    #[arg(long, default_value = "paper-rate", conflicts_with = "scenario")]
     pub example: String,
+    /// A scenario file (TOML, as `ebiv simulate` takes) to run instead of an example; its
+    /// duration is replaced by --duration.
+    #[arg(long, value_name = "FILE")]
+    pub scenario: Option<PathBuf>,
     /// Simulated time per run.
     #[arg(long, default_value = "100ms", value_parser = ebiv::units::parse_us)]
     pub duration: i64,
@@ -64,27 +68,29 @@ pub fn run(args: &BenchArgs) -> Result<(), ebiv::Error> {
 }
 
 fn simulate(args: &SimulateBenchArgs) -> Result<(), ebiv::Error> {
-    let text = ebiv::sim::scenario::Scenario::example(&args.example).ok_or_else(|| {
-        ebiv::Error::parameter(
-            "example",
-            format!("`{}` is not a ready scenario", args.example),
-        )
-    })?;
-    let mut scenario = super::simulate::parse_scenario(text, &args.example)?;
+    let example = args.scenario.is_none().then_some(args.example.as_str());
+    let (mut scenario, name) = super::simulate::load_scenario(example, args.scenario.as_deref())?;
     scenario.duration = args.duration;
     let sim = scenario.simulation()?;
     let mut best = f64::INFINITY;
+    let mut best_cpu = None;
     let mut events = 0;
     for _ in 0..args.repeat.max(1) {
-        let start = Instant::now();
+        let (start, cpu_start) = (Instant::now(), process_cpu_seconds());
         let out = sim.run(None, &|_| {})?;
-        best = best.min(start.elapsed().as_secs_f64());
+        let elapsed = start.elapsed().as_secs_f64();
+        if elapsed < best {
+            best = elapsed;
+            best_cpu = cpu_start.zip(process_cpu_seconds()).map(|(a, b)| b - a);
+        }
         events = out.events.len();
     }
     let simulated_s = args.duration as f64 * 1e-6;
+    let cpu = best_cpu
+        .map(|c| format!(" ({c:.3} s of CPU time, {:.2} CPUs busy)", c / best))
+        .unwrap_or_default();
     println!(
-        "simulate {}: {} for {}, {events} events ({:.1} M events/s of recording); best of {}: {:.3} s = {:.2} M events/s generated on {}",
-        args.example,
+        "simulate {name}: {} for {}, {events} events ({:.1} M events/s of recording); best of {}: {:.3} s{cpu} = {:.2} M events/s generated on {}",
         sim.geometry,
         ebiv::units::format_us(args.duration),
         events as f64 / simulated_s * 1e-6,
@@ -94,6 +100,28 @@ fn simulate(args: &SimulateBenchArgs) -> Result<(), ebiv::Error> {
         worker_threads()
     );
     Ok(())
+}
+
+/// The CPU time (user and system) this process has used so far, in seconds, where the
+/// platform tells it.
+fn process_cpu_seconds() -> Option<f64> {
+    #[cfg(unix)]
+    {
+        let mut usage = std::mem::MaybeUninit::<libc::rusage>::zeroed();
+        // SAFETY: `getrusage` writes a `rusage` into the pointer it is given.
+        let ok = unsafe { libc::getrusage(libc::RUSAGE_SELF, usage.as_mut_ptr()) } == 0;
+        if !ok {
+            return None;
+        }
+        // SAFETY: initialised by the successful call above.
+        let usage = unsafe { usage.assume_init() };
+        let seconds = |t: libc::timeval| t.tv_sec as f64 + t.tv_usec as f64 * 1e-6;
+        Some(seconds(usage.ru_utime) + seconds(usage.ru_stime))
+    }
+    #[cfg(not(unix))]
+    {
+        None
+    }
 }
 
 /// "1 thread" or "N threads": the size of the worker pool the bench ran on.

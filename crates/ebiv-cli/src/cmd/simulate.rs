@@ -51,24 +51,7 @@ pub fn run(args: &SimulateArgs) -> Result<(), ebiv::Error> {
         print!("{}", example_text(name)?);
         return Ok(());
     }
-    let (text, origin) = match (&args.example, &args.scenario) {
-        (Some(name), _) => (example_text(name)?.to_string(), format!("example `{name}`")),
-        (None, Some(path)) => (
-            std::fs::read_to_string(path).map_err(|e| ebiv::Error::io(path, e))?,
-            path.display().to_string(),
-        ),
-        (None, None) => {
-            return Err(ebiv::Error::parameter(
-                "scenario",
-                "give a scenario file or --example NAME",
-            ))
-        }
-    };
-    let mut scenario = parse_scenario(&text, &origin)?;
-    if let Some(dir) = args.scenario.as_ref().and_then(|p| p.parent()) {
-        // Gridded flow files are named relative to the scenario file.
-        scenario.flow = scenario.flow.with_base_dir(dir);
-    }
+    let (mut scenario, origin) = load_scenario(args.example.as_deref(), args.scenario.as_deref())?;
     if let Some(seed) = args.seed {
         scenario.seed = seed;
     }
@@ -244,6 +227,34 @@ fn example_text(name: &str) -> Result<&'static str, ebiv::Error> {
 }
 
 /// Parse a TOML scenario; errors name the file and line.
+/// The ready scenario `example` or else the scenario file `path` (its gridded flow files
+/// named relative to the file), with a name for it in messages.
+pub fn load_scenario(
+    example: Option<&str>,
+    path: Option<&Path>,
+) -> Result<(Scenario, String), ebiv::Error> {
+    let (text, origin) = match (example, path) {
+        (Some(name), _) => (example_text(name)?.to_string(), format!("example `{name}`")),
+        (None, Some(path)) => (
+            std::fs::read_to_string(path).map_err(|e| ebiv::Error::io(path, e))?,
+            path.display().to_string(),
+        ),
+        (None, None) => {
+            return Err(ebiv::Error::parameter(
+                "scenario",
+                "give a scenario file or --example NAME",
+            ))
+        }
+    };
+    let mut scenario = parse_scenario(&text, &origin)?;
+    if let Some(dir) = path.and_then(Path::parent) {
+        if example.is_none() {
+            scenario.flow = scenario.flow.with_base_dir(dir);
+        }
+    }
+    Ok((scenario, origin))
+}
+
 pub fn parse_scenario(text: &str, origin: &str) -> Result<Scenario, ebiv::Error> {
     toml::from_str(text).map_err(|e| ebiv::Error::Parse {
         context: origin.to_string(),
