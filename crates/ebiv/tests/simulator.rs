@@ -5,7 +5,7 @@ use ebiv::sim::flow::{Flow, FlowSpec};
 use ebiv::sim::particles::SeedingParams;
 use ebiv::sim::scene::{IlluminationParams, Wall};
 use ebiv::sim::sensor::SensorParams;
-use ebiv::sim::simulation::{SimOutput, Simulation};
+use ebiv::sim::simulation::{Interpolation, SimOutput, Simulation};
 use ebiv::Geometry;
 
 fn uniform(u: f64, v: f64) -> Box<dyn Flow> {
@@ -36,6 +36,7 @@ fn simulation(
         duration_us,
         step_px: 0.05,
         max_step_us: 20.0,
+        interpolation: Interpolation::Linear,
         seed: 5,
     }
 }
@@ -214,4 +215,85 @@ fn absurd_speeds_and_particle_counts_are_refused_before_the_run() {
     // The same seeding with short steps is fine.
     sim.max_step_us = 1.0;
     sim.validate().unwrap();
+}
+
+/// Per pixel and polarity, the k-th event of `a` against the k-th of `b`: the mean |Δt| of
+/// the pairs, µs, and how many events of either have no partner.
+fn paired_distance(a: &SimOutput, b: &SimOutput) -> (f64, usize) {
+    use std::collections::HashMap;
+    let lists = |out: &SimOutput| {
+        let mut lists: HashMap<(u16, u16, u8), Vec<i64>> = HashMap::new();
+        for e in out.events.iter() {
+            lists.entry((e.x, e.y, e.p)).or_default().push(e.t);
+        }
+        lists
+    };
+    let (la, lb) = (lists(a), lists(b));
+    let (mut sum, mut pairs, mut unpaired) = (0i64, 0usize, 0usize);
+    for (key, ta) in &la {
+        let tb = lb.get(key).map(Vec::as_slice).unwrap_or(&[]);
+        for (x, y) in ta.iter().zip(tb) {
+            sum += (x - y).abs();
+            pairs += 1;
+        }
+        unpaired += ta.len().abs_diff(tb.len());
+    }
+    unpaired += lb
+        .keys()
+        .filter(|k| !la.contains_key(k))
+        .map(|k| lb[k].len())
+        .sum::<usize>();
+    (sum as f64 / pairs.max(1) as f64, unpaired)
+}
+
+/// `[sampling] interpolation = "cubic"`: at the same coarse step, the events come far closer
+/// to those of a fine sampling than with straight lines between the samples.
+#[test]
+fn cubic_interpolation_follows_fine_sampling_closer_than_ramps() {
+    let mut sensor = SensorParams::gen4();
+    sensor.jitter_us = 0.0;
+    sensor.leak_rate_hz = 0.0;
+    sensor.shot_noise_rate_hz = 0.0;
+    sensor.hot_pixel_fraction = 0.0;
+    let sampled = |step_px: f64, interpolation: Interpolation| Simulation {
+        step_px,
+        max_step_us: 1000.0,
+        interpolation,
+        ..simulation(uniform(1.5, 0.2), sensor.clone(), 0.003, 20_000)
+    };
+    let reference = run(&sampled(0.025, Interpolation::Linear), None);
+    let ramps = run(&sampled(0.5, Interpolation::Linear), None);
+    let cubic = run(&sampled(0.5, Interpolation::Cubic), None);
+    let (d_ramps, u_ramps) = paired_distance(&ramps, &reference);
+    let (d_cubic, u_cubic) = paired_distance(&cubic, &reference);
+    println!(
+        "{} reference events; ramps: mean |Δt| {d_ramps:.2} µs, {u_ramps} unpaired; cubic: \
+         {d_cubic:.2} µs, {u_cubic} unpaired",
+        reference.events.len()
+    );
+    assert!(reference.events.len() > 5000, "{}", reference.events.len());
+    assert!(d_cubic < 0.5 * d_ramps, "{d_cubic} against {d_ramps}");
+    assert!(u_cubic < u_ramps / 2, "{u_cubic} against {u_ramps}");
+}
+
+/// The cubic interpolation needs the light's own slopes, which pulses and flicker would
+/// bring: such scenes are refused with the key to change.
+#[test]
+fn cubic_interpolation_is_refused_for_pulsed_or_flickering_light() {
+    use ebiv::sim::scene::LightMode;
+    let base = || Simulation {
+        interpolation: Interpolation::Cubic,
+        ..simulation(uniform(1.5, 0.0), SensorParams::gen4(), 0.003, 1000)
+    };
+    assert!(base().validate().is_ok());
+    let mut pulsed = base();
+    pulsed.illumination.mode = LightMode::Pulsed;
+    let mut flicker = base();
+    flicker.illumination.flicker_hz = 100.0;
+    flicker.illumination.flicker_amplitude = 0.1;
+    for sim in [pulsed, flicker] {
+        let message = sim.validate().unwrap_err().to_string();
+        assert!(message.contains("sampling.interpolation"), "{message}");
+        assert!(sim.run(None, &|_| {}).is_err());
+    }
 }

@@ -5,7 +5,7 @@ use super::flow::FlowSpec;
 use super::particles::SeedingParams;
 use super::scene::IlluminationParams;
 use super::sensor::{SensorParams, TimestampMode};
-use super::simulation::Simulation;
+use super::simulation::{Interpolation, Simulation};
 use crate::error::{Error, Result};
 use crate::event::Geometry;
 use std::collections::BTreeMap;
@@ -88,6 +88,10 @@ pub struct Sampling {
     pub step_px: f64,
     /// Longest interval between samples, µs.
     pub max_step_us: f64,
+    /// How a pixel's input runs between samples: `"linear"` (the default) or `"cubic"`
+    /// ([`Interpolation`]: a third of the timing error at 0.25 px for 1.37 times the CPU
+    /// time; continuous light without flicker only).
+    pub interpolation: Interpolation,
 }
 
 impl Default for Sampling {
@@ -95,6 +99,7 @@ impl Default for Sampling {
         Sampling {
             step_px: 0.25,
             max_step_us: 200.0,
+            interpolation: Interpolation::Linear,
         }
     }
 }
@@ -268,6 +273,7 @@ impl Scenario {
             duration_us: self.duration,
             step_px: self.sampling.step_px,
             max_step_us: self.sampling.max_step_us,
+            interpolation: self.sampling.interpolation,
             seed: self.seed,
         };
         sim.validate()?;
@@ -360,6 +366,19 @@ mod tests {
         let bad = text.replace("duration = ", "duration = \"ten\" #");
         let err = parse(&bad, "s.toml").unwrap_err().to_string();
         assert!(err.contains("not a time"), "{err}");
+    }
+
+    #[test]
+    fn the_interpolation_is_read_from_the_sampling_table() {
+        let text = Scenario::example("uniform").unwrap();
+        let default = parse(text, "t").unwrap().simulation().unwrap();
+        assert_eq!(default.interpolation, Interpolation::Linear);
+        let cubic = format!("{text}\n[sampling]\ninterpolation = \"cubic\"\n");
+        let sim = parse(&cubic, "t").unwrap().simulation().unwrap();
+        assert_eq!(sim.interpolation, Interpolation::Cubic);
+        let bad = cubic.replace("\"cubic\"", "\"quadratic\"");
+        let err = parse(&bad, "t").unwrap_err().to_string();
+        assert!(err.contains("quadratic") && err.contains("cubic"), "{err}");
     }
 
     #[test]

@@ -3,7 +3,7 @@
 use std::ops::Range;
 
 use super::active::ActiveSet;
-use super::detector::{Pixel, Ramp, StepContext};
+use super::detector::{HermiteEnds, Pixel, Ramp, StepContext};
 use super::noise::RowNoiseBound;
 use super::params::SensorParams;
 use super::response::{clean_irradiance, Curve, Response, MIN_THRESHOLD};
@@ -58,6 +58,15 @@ pub struct SensorBand {
     /// New samples `(local pixel, irradiance)` for the step being prepared, one per pixel
     /// (the pixel carries the `CHANGED` mark).
     changed: Vec<(u32, f32)>,
+    /// Irradiance slopes (per µs) of the entries of `changed`, when given
+    /// ([`SensorBand::push_input_sloped`]): the input between samples is then a cubic Hermite
+    /// interpolant instead of a linear ramp.
+    changed_slopes: Vec<f32>,
+    /// Per pixel, the log-response slope (per µs) of its last sample (empty until slopes
+    /// are given).
+    slope: Vec<f32>,
+    /// Scratch: [`StepContext::hermite_lanes`] of the new samples.
+    ends: Vec<HermiteEnds>,
     /// Scratch: [`StepContext::prepare`] of each entry of `changed`.
     ramps: Vec<Ramp>,
     /// Per active pixel, the time before which it need not be visited unless changed.
@@ -160,6 +169,9 @@ impl SensorBand {
             rows,
             pixels,
             changed: Vec::new(),
+            changed_slopes: Vec::new(),
+            slope: Vec::new(),
+            ends: Vec::new(),
             ramps: Vec::new(),
             // Read only for members of the active set, which set it first; zeroed memory is
             // not touched (or paged in) until then.
@@ -304,6 +316,17 @@ impl SensorBand {
         self.changed.push((local as u32, irr));
     }
 
+    /// [`SensorBand::push_input`] with the irradiance's time derivative `slope` (per µs) at
+    /// the sample: the pixel's log input up to it is then the cubic Hermite interpolant of
+    /// its last two samples and their slopes ([`StepContext::hermite_step`]) instead of a
+    /// straight line. All new samples of a step are to be given this way (if some are not,
+    /// the step's slopes are ignored).
+    #[inline]
+    pub(crate) fn push_input_sloped(&mut self, local: usize, irr: f32, slope: f32) {
+        self.changed.push((local as u32, irr));
+        self.changed_slopes.push(slope);
+    }
+
     /// Run the step begun by [`SensorBand::begin_step`] (see [`SensorBand::advance`]).
     ///
     /// Every pixel with a new sample is updated, joining the active set if it may fire while
@@ -369,13 +392,32 @@ impl SensorBand {
         ramps.extend(batches.remainder().iter().map(|&(local, irr)| {
             StepContext::prepare(ctx.response, &pixels[local as usize], irr, dt)
         }));
-        for (&(local, _), ramp) in self.changed.iter().zip(ramps.iter()) {
+        // Slopes for every new sample, or none (a caller mixing the two gets ramps).
+        let sloped = !self.changed.is_empty() && self.changed_slopes.len() == self.changed.len();
+        debug_assert!(sloped || self.changed_slopes.is_empty());
+        if sloped && self.slope.len() != pixels.len() {
+            self.slope = vec![0.0; pixels.len()];
+        }
+        let ends = &mut self.ends;
+        if sloped {
+            StepContext::hermite_lanes(ctx.response, ramps, &self.changed_slopes, ends);
+        }
+        let span = (ta, tb, 1.0 / dt);
+        let slopes = &mut self.slope;
+        for (j, (&(local, _), ramp)) in self.changed.iter().zip(ramps.iter()).enumerate() {
             let i = local as usize;
             let px = &mut pixels[i];
             px.clear_changed();
-            let next = match StepContext::quiet_ramp(ctx.response, px, ta, tb, ramp) {
-                Some(next) => next,
-                None => ctx.step(px, local, ta, tb, Some(ramp)),
+            let next = if sloped {
+                let end = &ends[j];
+                let next = ctx.hermite_step(px, local, span, ramp, slopes[i], end);
+                slopes[i] = end.mb;
+                next
+            } else {
+                match StepContext::quiet_ramp(ctx.response, px, ta, tb, ramp) {
+                    Some(next) => next,
+                    None => ctx.step(px, local, ta, tb, Some(ramp)),
+                }
             };
             match next {
                 Some(next) => {
@@ -386,6 +428,7 @@ impl SensorBand {
             }
         }
         self.changed.clear();
+        self.changed_slopes.clear();
         if active.len() > 0 {
             active.retain(|local| {
                 if wake[local] > tb {
@@ -398,6 +441,10 @@ impl SensorBand {
                     return true;
                 }
                 updates += 1;
+                // Its input held over the step: the next sample's cubic starts flat.
+                if let Some(s) = slopes.get_mut(local) {
+                    *s = 0.0;
+                }
                 match ctx.step(px, local as u32, ta, tb, None) {
                     Some(next) => {
                         wake[local] = next;

@@ -159,7 +159,6 @@ impl StepContext<'_> {
         tb: f64,
         new: Option<&Ramp>,
     ) -> Option<f64> {
-        let r = self.response;
         if let Some(ramp) = new {
             let (irr, u) = ramp.sample();
             let u = if irr != px.irr { u } else { px.u };
@@ -174,7 +173,14 @@ impl StepContext<'_> {
         } else {
             self.segment(px, local, tb, None, None);
         }
+        self.settled_or_due(px, new.is_some())
+    }
 
+    /// What [`StepContext::step`] returns for `px` at the end of its step (`new`: whether it
+    /// had a new sample).
+    #[inline]
+    fn settled_or_due(&self, px: &Pixel, new: bool) -> Option<f64> {
+        let r = self.response;
         if px.blind() {
             return Some(px.release);
         }
@@ -191,7 +197,7 @@ impl StepContext<'_> {
         if omega <= 0.0 {
             return None;
         }
-        if new.is_some() {
+        if new {
             return Some(f64::NEG_INFINITY);
         }
         // Constant input: `L` relaxes monotonically towards `u`, which lies beyond a level;
@@ -205,6 +211,97 @@ impl StepContext<'_> {
             // +∞: the input sits on the level and is only reached asymptotically.
             (wake < f64::INFINITY).then_some(wake)
         }
+    }
+
+    /// The log-response slopes `m_b` (per µs, rounded to `f32` as the pixels keep them; 0
+    /// where not finite) of new samples with irradiance slopes `slopes`, and `1/ω` of their
+    /// ramps, for [`StepContext::hermite_step`]: a loop of independent lanes, so that its
+    /// divisions vectorise.
+    #[inline(always)]
+    pub(super) fn hermite_lanes(
+        r: &Response,
+        ramps: &[Ramp],
+        slopes: &[f32],
+        out: &mut Vec<HermiteEnds>,
+    ) {
+        out.clear();
+        out.extend(ramps.iter().zip(slopes).map(|(ramp, &s)| {
+            let mb = (s as f64 * r.log_slope(ramp.irr as f64)) as f32;
+            HermiteEnds {
+                mb: if mb.is_finite() { mb } else { 0.0 },
+                inv_omega: 1.0 / ramp.omega,
+            }
+        }));
+    }
+
+    /// [`StepContext::step`] with a new sample, the pixel's log input over `[ta, tb]` the
+    /// cubic Hermite interpolant between the samples with end slopes `ma` (of the pixel's
+    /// last sample, taken as 0 if its input was held since before `ta`) and `ends.mb`, per
+    /// µs; `inv_h` is `1/(tb − ta)`.
+    ///
+    /// A pixel whose `L` and the interpolant's Bézier control points (which bound the cubic,
+    /// and with `L` bound `L` over the step) lie inside both levels cannot fire in the step;
+    /// it takes the exact low-pass solution for the cubic input
+    /// ([`Hermite::low_pass_end`]), with ω frozen at the step's mean irradiance as for a
+    /// linear ramp. Any other pixel is advanced by two linear ramps through the
+    /// interpolant's value at the step's middle, with the crossing times of
+    /// [`StepContext::step`] (sub-steps of half the length, each with its own corner).
+    pub(super) fn hermite_step(
+        &mut self,
+        px: &mut Pixel,
+        local: u32,
+        (ta, tb, inv_h): (f64, f64, f64),
+        ramp: &Ramp,
+        ma: f32,
+        ends: &HermiteEnds,
+    ) -> Option<f64> {
+        let r = self.response;
+        let (irr_b, ub) = ramp.sample();
+        let ub = if irr_b != px.irr { ub } else { px.u };
+        let held = px.t < ta;
+        if held && !(r.low_pass() && !px.blind() && Self::quiet_hold(r, px, ta)) {
+            self.segment(px, local, ta, None, None);
+        }
+        let ma = if held { 0.0 } else { ma as f64 };
+        let mb = ends.mb as f64;
+        let h = tb - ta;
+        let ua = px.u;
+        if r.low_pass() && !px.blind() && px.t == ta && ramp.omega * h >= 0.5 {
+            let hi = px.l_ref + px.theta_on - TIE;
+            let lo = px.l_ref - px.theta_off + TIE;
+            let inside = |v: f64| v < hi && v > lo;
+            let third = h * (1.0 / 3.0);
+            let (c1, c2) = (ua + third * ma, ub - third * mb);
+            if inside(px.l) && inside(ua) && inside(c1) && inside(c2) && inside(ub) {
+                let cubic = Hermite {
+                    ua,
+                    ub,
+                    ma,
+                    mb,
+                    h,
+                    inv_h,
+                };
+                let lb = cubic.low_pass_end(px.l, ends.inv_omega, ramp.relax);
+                if inside(lb) {
+                    px.l = lb;
+                    px.u = ub;
+                    px.irr = irr_b;
+                    px.t = tb;
+                    return None;
+                }
+            }
+        }
+        if px.t == ta && h > 1e-9 {
+            let um = 0.5 * (ua + ub) + 0.125 * h * (ma - mb);
+            // The corner of each half from the irradiance's own Hermite interpolant (slopes
+            // `m/log′`), which needs no exponential.
+            let (ia, ib) = (px.irr as f64, irr_b as f64);
+            let (sa, sb) = (ma / r.log_slope(ia), mb / r.log_slope(ib));
+            let im = clean_irradiance((0.5 * (ia + ib) + 0.125 * h * (sa - sb)) as f32);
+            self.segment(px, local, ta + 0.5 * h, Some((im, um)), None);
+        }
+        self.segment(px, local, tb, Some((irr_b, ub)), None);
+        self.settled_or_due(px, true)
     }
 
     /// The transcendental parts of the update of `px` by the new sample `irr` over a step of
@@ -473,6 +570,54 @@ impl StepContext<'_> {
         } else {
             self.counters.off += 1;
         }
+    }
+}
+
+/// What [`StepContext::hermite_step`] needs of a new sample besides its [`Ramp`].
+#[derive(Debug, Clone, Copy, Default)]
+pub(super) struct HermiteEnds {
+    /// Slope of the log response at the sample, per µs.
+    pub(super) mb: f32,
+    /// `1/ω` of the ramp's corner.
+    inv_omega: f64,
+}
+
+/// The cubic Hermite interpolant from `ua` (slope `ma`) to `ub` (slope `mb`) over `h` µs
+/// (`inv_h = 1/h`).
+pub(super) struct Hermite {
+    pub(super) ua: f64,
+    pub(super) ub: f64,
+    pub(super) ma: f64,
+    pub(super) mb: f64,
+    pub(super) h: f64,
+    pub(super) inv_h: f64,
+}
+
+impl Hermite {
+    /// `L(h)` of the low-pass of corner ω (`inv_omega` = 1/ω, `relax` its [`Relaxation`] over
+    /// `h`) from `la`, this cubic its input: with the polynomial particular solution
+    /// `P = u − u′/ω + u″/ω² − u‴/ω³`, `L(τ) = P(τ) + (L_a − P(0))·e^(−ωτ)`. Used where
+    /// `ω·h ≥ 0.5`, so that the powers of `1/ω` lose at most a digit.
+    #[inline(always)]
+    pub(super) fn low_pass_end(&self, la: f64, inv_omega: f64, relax: Relaxation) -> f64 {
+        let Hermite {
+            ua,
+            ub,
+            ma,
+            mb,
+            h,
+            inv_h,
+        } = *self;
+        let secant = (ub - ua) * inv_h;
+        // u = ua + ma·τ + c2·τ² + c3·τ³.
+        let c2 = (3.0 * secant - 2.0 * ma - mb) * inv_h;
+        let c3 = (ma + mb - 2.0 * secant) * (inv_h * inv_h);
+        let w = inv_omega;
+        let w2 = w * w;
+        let jerk = 6.0 * c3 * w2 * w;
+        let p0 = ua - ma * w + 2.0 * c2 * w2 - jerk;
+        let ph = ub - mb * w + (2.0 * c2 + 6.0 * c3 * h) * w2 - jerk;
+        ph + (la - p0) * (1.0 - relax.rise)
     }
 }
 

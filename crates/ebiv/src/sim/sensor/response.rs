@@ -115,6 +115,16 @@ impl Response {
         }
     }
 
+    /// `d log(i)/di`, the slope of [`Response::log`] at irradiance `i`.
+    #[inline(always)]
+    pub fn log_slope(&self, i: f64) -> f64 {
+        if self.knee > 0.0 {
+            1.0 / i.max(self.knee)
+        } else {
+            1.0 / (i + self.eps)
+        }
+    }
+
     /// Whether the photoreceptor low-pass is on.
     #[inline]
     pub fn low_pass(&self) -> bool {
@@ -168,7 +178,7 @@ fn one_minus_exp(x: f64) -> f64 {
 /// vector instructions.
 #[derive(Debug, Clone, Copy, Default, PartialEq)]
 pub(super) struct Relaxation {
-    rise: f64,
+    pub(super) rise: f64,
     lag: f64,
 }
 

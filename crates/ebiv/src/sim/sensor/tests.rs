@@ -1,5 +1,6 @@
 //! Physics tests of the pixel model (fixed seeds, exact expectations where the model has them).
 
+mod cubic;
 mod detector;
 mod noise;
 mod readout;
