@@ -335,6 +335,7 @@ impl Simulation {
                 }
                 let t_next = (t + dt).min(t_end);
                 cloud.advance(self.flow.as_ref(), t, t_next);
+                let t_prev = t;
                 t = t_next;
                 samples += 1;
                 if batch.len() <= used {
@@ -355,7 +356,12 @@ impl Simulation {
                     sample.light,
                     n_bands,
                     &mut sample.buckets,
-                    cubic.then_some((self.flow.as_ref(), t, &mut sample.motions)),
+                    cubic.then_some(ImageMotions {
+                        flow: self.flow.as_ref(),
+                        t,
+                        step: t - t_prev,
+                        motions: &mut sample.motions,
+                    }),
                 );
                 used += 1;
             }
@@ -480,12 +486,35 @@ impl Simulation {
     }
 }
 
+/// Where [`bucket_by_band`] puts the images' [`SpotMotion`]s at the sample `t`, `step` µs
+/// after the one before.
+struct ImageMotions<'a> {
+    flow: &'a dyn Flow,
+    t: f64,
+    step: f64,
+    /// Laid out as the buckets of spots.
+    motions: &'a mut Vec<Vec<SpotMotion>>,
+}
+
+impl ImageMotions<'_> {
+    /// The motion of `p`'s image. Its brightness change through the sheet is limited to a
+    /// factor e per step: a particle crossing the sheet faster is not resolved by the
+    /// samples, and the cubic through them would swing far beyond what they show.
+    fn of(&self, p: &Particle, renderer: &ParticleRenderer) -> SpotMotion {
+        let (u, v) = self.flow.velocity(p.x, p.y, self.t);
+        let limit = 1.0 / self.step.max(1e-6);
+        SpotMotion {
+            vx: u * 1e-3,
+            vy: v * 1e-3,
+            fade: renderer.fade_rate(p).clamp(-limit, limit),
+        }
+    }
+}
+
 /// The images of the particles at light factor `light`, sorted into the `bands` bands they
 /// may reach (so that each band reads its spots from contiguous memory). A particle goes to
-/// exactly the bands in which [`ParticleRenderer::draw`] may draw something. With
-/// `motion = (flow, t, motions)`, each image's [`SpotMotion`] at time `t` goes to `motions`,
-/// laid out as `buckets`.
-#[allow(clippy::too_many_arguments)]
+/// exactly the bands in which [`ParticleRenderer::draw`] may draw something. With `motion`,
+/// each image's [`SpotMotion`] goes to its `motions`, laid out as `buckets`.
 fn bucket_by_band(
     particles: &[Particle],
     renderer: &ParticleRenderer,
@@ -493,13 +522,13 @@ fn bucket_by_band(
     light: f64,
     bands: usize,
     buckets: &mut Vec<Vec<Spot>>,
-    mut motion: Option<(&dyn Flow, f64, &mut Vec<Vec<SpotMotion>>)>,
+    mut motion: Option<ImageMotions>,
 ) {
     buckets.resize_with(bands, Vec::new);
     buckets.iter_mut().for_each(Vec::clear);
-    if let Some((_, _, motions)) = motion.as_mut() {
-        motions.resize_with(bands, Vec::new);
-        motions.iter_mut().for_each(Vec::clear);
+    if let Some(m) = motion.as_mut() {
+        m.motions.resize_with(bands, Vec::new);
+        m.motions.iter_mut().for_each(Vec::clear);
     }
     images.entries.resize(particles.len(), None);
     let last = bands as i64 - 1;
@@ -516,15 +545,10 @@ fn bucket_by_band(
         for b in lo..=hi {
             buckets[b as usize].push(spot);
         }
-        if let Some((flow, t, motions)) = motion.as_mut() {
-            let (u, v) = flow.velocity(p.x, p.y, *t);
-            let m = SpotMotion {
-                vx: u * 1e-3,
-                vy: v * 1e-3,
-                fade: renderer.fade_rate(p),
-            };
+        if let Some(m) = motion.as_mut() {
+            let image = m.of(p, renderer);
             for b in lo..=hi {
-                motions[b as usize].push(m);
+                m.motions[b as usize].push(image);
             }
         }
     }

@@ -244,6 +244,8 @@ impl SensorBand {
             self.pixels[local as usize].clear_changed();
         }
         self.changed.clear();
+        self.changed_slopes.clear();
+        self.slope.iter_mut().for_each(|s| *s = 0.0);
         self.active.clear();
         self.t_now = t0;
         self.t_next = t0;
@@ -394,7 +396,6 @@ impl SensorBand {
         }));
         // Slopes for every new sample, or none (a caller mixing the two gets ramps).
         let sloped = !self.changed.is_empty() && self.changed_slopes.len() == self.changed.len();
-        debug_assert!(sloped || self.changed_slopes.is_empty());
         if sloped && self.slope.len() != pixels.len() {
             self.slope = vec![0.0; pixels.len()];
         }
@@ -414,6 +415,10 @@ impl SensorBand {
                 slopes[i] = end.mb;
                 next
             } else {
+                // A ramp: a later cubic starts flat from this sample.
+                if let Some(s) = slopes.get_mut(i) {
+                    *s = 0.0;
+                }
                 match StepContext::quiet_ramp(ctx.response, px, ta, tb, ramp) {
                     Some(next) => next,
                     None => ctx.step(px, local, ta, tb, Some(ramp)),

@@ -263,9 +263,9 @@ impl StepContext<'_> {
             self.segment(px, local, ta, None, None);
         }
         let ma = if held { 0.0 } else { ma as f64 };
-        let mb = ends.mb as f64;
         let h = tb - ta;
         let ua = px.u;
+        let (ma, mb) = limited_slopes(ma, ends.mb as f64, (ub - ua) * inv_h, r.log_range() * inv_h);
         if r.low_pass() && !px.blind() && px.t == ta && ramp.omega * h >= 0.5 {
             let hi = px.l_ref + px.theta_on - TIE;
             let lo = px.l_ref - px.theta_off + TIE;
@@ -573,6 +573,31 @@ impl StepContext<'_> {
     }
 }
 
+/// The end slopes `ma`, `mb` of a step's cubic whose secant is `secant`, limited so that the
+/// cubic stays within what a pixel's input can do: on a monotone step (both slopes of the
+/// secant's sign) at most three times the secant, which keeps the cubic monotone, between its
+/// ends (Fritsch & Carlson, SIAM J. Numer. Anal. 17, 1980; the dip of a steep leading edge
+/// below the background otherwise), and any slope at most `max_slope`, the whole range of the
+/// log response per step (an absurd slope would otherwise push the input beyond any level).
+#[inline(always)]
+fn limited_slopes(ma: f64, mb: f64, secant: f64, max_slope: f64) -> (f64, f64) {
+    let max_slope = if max_slope.is_nan() {
+        f64::INFINITY
+    } else {
+        max_slope
+    };
+    let (ma, mb) = (
+        ma.clamp(-max_slope, max_slope),
+        mb.clamp(-max_slope, max_slope),
+    );
+    if secant != 0.0 && ma * secant >= 0.0 && mb * secant >= 0.0 {
+        let cap = 3.0 * secant.abs();
+        (ma.clamp(-cap, cap), mb.clamp(-cap, cap))
+    } else {
+        (ma, mb)
+    }
+}
+
 /// What [`StepContext::hermite_step`] needs of a new sample besides its [`Ramp`].
 #[derive(Debug, Clone, Copy, Default)]
 pub(super) struct HermiteEnds {
@@ -597,7 +622,8 @@ impl Hermite {
     /// `L(h)` of the low-pass of corner ω (`inv_omega` = 1/ω, `relax` its [`Relaxation`] over
     /// `h`) from `la`, this cubic its input: with the polynomial particular solution
     /// `P = u − u′/ω + u″/ω² − u‴/ω³`, `L(τ) = P(τ) + (L_a − P(0))·e^(−ωτ)`. Used where
-    /// `ω·h ≥ 0.5`, so that the powers of `1/ω` lose at most a digit.
+    /// `ω·h ≥ 0.5`, where the powers of `1/ω` lose about two digits (the terms are at most
+    /// about 50 times the input's change).
     #[inline(always)]
     pub(super) fn low_pass_end(&self, la: f64, inv_omega: f64, relax: Relaxation) -> f64 {
         let Hermite {

@@ -17,6 +17,8 @@ pub(super) struct Response {
     dark: f64,
     /// `1/(reference + dark)`.
     inv_span: f64,
+    /// The whole range of [`Response::log`], from irradiance 0 to `f32::MAX`.
+    log_range: f64,
     pub theta_on: f64,
     pub theta_off: f64,
     pub sigma: f64,
@@ -57,7 +59,7 @@ impl Response {
         let cutoff = clean(p.cutoff_hz, 0.0, 1e12, 0.0);
         let reference = clean(p.cutoff_reference_irradiance, 0.0, 1e30, 0.0);
         let dark = clean(p.cutoff_dark_irradiance, 0.0, 1e30, 0.0);
-        Response {
+        let mut response = Response {
             knee,
             ln_knee: if knee > 0.0 { fastmath::ln(knee) } else { 0.0 },
             eps,
@@ -71,7 +73,16 @@ impl Response {
             latency: clean(p.latency_us, 0.0, 1e12, 0.0),
             jitter: clean(p.jitter_us, 0.0, 1e12, 0.0),
             refractory: clean(p.refractory_us, 0.0, 1e12, 0.0),
-        }
+            log_range: 0.0,
+        };
+        response.log_range = response.log(f32::MAX) - response.log(0.0);
+        response
+    }
+
+    /// The whole range of the log response, from irradiance 0 to the largest `f32`.
+    #[inline]
+    pub fn log_range(&self) -> f64 {
+        self.log_range
     }
 
     /// The photoreceptor's log response to irradiance `i` (sensor-model.md §2.2): `ln i`

@@ -163,3 +163,62 @@ fn steps_without_slopes_are_ramps() {
     assert!(!expected.is_empty());
     assert_eq!(out, expected);
 }
+
+/// One pixel through quiet sloped steps (no level reached): after each step its `L` is the
+/// exact low-pass of the cubic that starts with the slope of the pixel's last sample, or
+/// flat after a ramp or a held input, as Runge–Kutta integrates it.
+#[test]
+fn a_pixels_cubic_starts_with_the_slope_of_its_last_sample_or_flat() {
+    let p = quiet(SensorParams::gen4());
+    let r = response::Response::new(&p);
+    let h = 100.0;
+    // (time, irradiance, slope per µs or None for a ramp, sampled at all)
+    let steps: [(f64, f32, Option<f32>, bool); 6] = [
+        (100.0, 1.05, Some(5e-4), true),
+        (200.0, 1.08, Some(2e-4), true), // starts with the first step's slope
+        (300.0, 1.10, None, true),       // a ramp
+        (400.0, 1.12, Some(3e-4), true), // starts flat after the ramp
+        (500.0, 1.12, None, false),      // held (no sample, the pixel asleep)
+        (600.0, 1.15, Some(-1e-4), true), // starts flat after the held input
+    ];
+    let mut band = one_pixel(&p, 1.0);
+    let mut out = Vec::new();
+    let (mut l, mut ia, mut ma, mut t_last) = (0.0f64, 1.0f32, 0.0f64, 0.0);
+    for (t, ib, slope, sampled) in steps {
+        band.begin_step(t);
+        match (sampled, slope) {
+            (true, Some(s)) => band.push_input_sloped(0, ib, s),
+            (true, None) => band.push_input(0, ib),
+            (false, _) => {}
+        }
+        band.advance_marked(&mut out);
+        if !sampled {
+            continue;
+        }
+        let (ua, ub) = (r.log(ia), r.log(ib));
+        let omega = r.omega(0.5 * (ia as f64 + ib as f64));
+        // The held stretch since the last sample first: constant input.
+        let start = t - h;
+        l = ua + (l - ua) * (-r.omega(ia as f64) * (start - t_last)).exp();
+        let ma_step = if t_last < start { 0.0 } else { ma };
+        let mb = slope.map_or(0.0, |s| (s as f64 * r.log_slope(ib as f64)) as f32 as f64);
+        l = match slope {
+            Some(_) => {
+                let cubic = Hermite {
+                    ua,
+                    ub,
+                    ma: ma_step,
+                    mb,
+                    h,
+                    inv_h: 1.0 / h,
+                };
+                runge_kutta(&cubic, l, omega, 20_000)
+            }
+            None => Curve::low_pass(0.0, h, l, ua, ub, omega).end_value(),
+        };
+        let (got, _) = band.log_state(0, 0).unwrap();
+        assert!((got - l).abs() < 1e-10, "at {t} µs: {got} against {l}");
+        (ia, ma, t_last) = (ib, mb, t);
+    }
+    assert!(out.is_empty(), "{out:?}");
+}
