@@ -518,10 +518,9 @@ fn the_thread_count_is_chosen_and_does_not_change_results() {
     ]);
     assert!(out.status.success(), "{}", stderr(&out));
     let text = stdout(&out);
-    assert!(
-        text.contains("bench.toml: 64x48 for 2.000 ms") && text.contains("s of CPU time"),
-        "{text}"
-    );
+    assert!(text.contains("bench.toml: 64x48 for 2.000 ms"), "{text}");
+    // The CPU time where the platform tells it (getrusage).
+    assert!(!cfg!(unix) || text.contains("s of CPU time"), "{text}");
     let out = ebiv(&["bench", "simulate", "--scenario", &path("missing.toml")]);
     assert!(!out.status.success());
     assert!(stderr(&out).contains("missing.toml"), "{}", stderr(&out));

@@ -69,8 +69,12 @@ pub fn run(args: &BenchArgs) -> Result<(), ebiv::Error> {
 
 fn simulate(args: &SimulateBenchArgs) -> Result<(), ebiv::Error> {
     let example = args.scenario.is_none().then_some(args.example.as_str());
-    let (mut scenario, name) = super::simulate::load_scenario(example, args.scenario.as_deref())?;
+    let (mut scenario, _) = super::simulate::load_scenario(example, args.scenario.as_deref())?;
     scenario.duration = args.duration;
+    let name = match &args.scenario {
+        Some(path) => path.display().to_string(),
+        None => args.example.clone(),
+    };
     let sim = scenario.simulation()?;
     let mut best = f64::INFINITY;
     let mut best_cpu = None;

@@ -226,7 +226,6 @@ fn example_text(name: &str) -> Result<&'static str, ebiv::Error> {
     })
 }
 
-/// Parse a TOML scenario; errors name the file and line.
 /// The ready scenario `example` or else the scenario file `path` (its gridded flow files
 /// named relative to the file), with a name for it in messages.
 pub fn load_scenario(
@@ -255,6 +254,7 @@ pub fn load_scenario(
     Ok((scenario, origin))
 }
 
+/// Parse a TOML scenario; errors name the file and line.
 pub fn parse_scenario(text: &str, origin: &str) -> Result<Scenario, ebiv::Error> {
     toml::from_str(text).map_err(|e| ebiv::Error::Parse {
         context: origin.to_string(),

@@ -79,7 +79,8 @@ fn default_preset() -> String {
 #[serde(deny_unknown_fields, default)]
 pub struct Sampling {
     /// Largest particle displacement between samples, px. Crossing times are exact for the
-    /// log intensity interpolated linearly between samples; the interpolation is the error.
+    /// log intensity interpolated between samples (`interpolation`); the interpolation is
+    /// the error. The figures below are for the linear interpolation.
     /// On 100 ms of the `paper-rate` example (1.5 px/ms), against 0.05 px per step (whose
     /// own events are 77 % identical to those of 0.025 px, mean |Δt| 1.1 µs): 0.25 px gives
     /// 0.7 % fewer events and a median |Δt| of 3 µs (0.005 px of travel; mean 12 µs, 30 % of

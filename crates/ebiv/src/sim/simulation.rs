@@ -49,10 +49,10 @@ pub struct Simulation {
 ///
 /// Measured on 50 ms of the `paper-rate` example against a run sampled at 0.025 px per step
 /// (docs/performance.md, eighteenth session): at 0.25 px per step, `Linear` puts the events a
-/// median 3 µs (mean 17 µs, 30 % beyond 5 µs) from the reference and loses 0.8 % of them,
-/// `Cubic` a median 1 µs (mean 5.5 µs, 4 % beyond 5 µs) losing 0.2 %, for 1.37 times the
-/// CPU time (1.25 at 0.3 px); `Cubic` at 0.5 px per step is about as accurate as `Linear` at
-/// 0.25 px and 3 % faster.
+/// median 3 µs (mean 17 µs, 30 % beyond 5 µs) from the reference's with 0.8 % of the events
+/// unpaired, `Cubic` a median 1 µs (mean 5.5 µs, 4 % beyond 5 µs) with 0.2 % unpaired, for
+/// 1.37 times the CPU time (1.25 at 0.3 px); `Cubic` at 0.5 px per step is a little less
+/// accurate than `Linear` at 0.25 px (median 4 µs, mean 19 µs) and 3 % faster.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq, serde::Deserialize)]
 #[serde(rename_all = "snake_case")]
 pub enum Interpolation {
@@ -61,7 +61,11 @@ pub enum Interpolation {
     Linear,
     /// The cubic Hermite interpolant of the log intensity with its exact time derivatives
     /// at the samples (from the particle images' motion and their drift through the light
-    /// sheet). For continuous light without flicker, whose own slopes are not modelled.
+    /// sheet; limited where the samples do not resolve them). A pixel that cannot fire in
+    /// the step follows the cubic exactly; one that may fire takes two straight lines
+    /// through the cubic's middle, its crossing times exact for those. For continuous light
+    /// without flicker, whose own slopes are not modelled. The first step of a recording
+    /// starts flat (the pixels are adapted as to a still scene).
     Cubic,
 }
 
@@ -106,8 +110,9 @@ pub type EventSink<'a> = dyn FnMut(&EventBuffer) -> Result<()> + Send + 'a;
 const MAX_SPEED: f64 = 1e4;
 
 /// Most particles seeded: about 4 GB for the particles (56 bytes each), their cached images
-/// (80) and one sample of their images in each of the two batches in flight (2 × 48, 2 × 72
-/// with the motions of [`Interpolation::Cubic`]; [`samples_per_batch`]).
+/// (80) and one sample of their images in each of the two batches in flight (2 × 48; 2 × 72
+/// and about 4.7 GB in all with the motions of [`Interpolation::Cubic`];
+/// [`samples_per_batch`]).
 const MAX_PARTICLES: u64 = 1 << 24;
 
 /// Rows per band: small enough for both cores to stay busy, large enough to amortise.
