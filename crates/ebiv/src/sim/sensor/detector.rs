@@ -68,6 +68,16 @@ impl Pixel {
         self.events &= COUNT;
     }
 
+    /// The ON and OFF levels `(hi, lo)` of the change detector, each moved inside by
+    /// [`TIE`]: `L` reaches a level where it is at or beyond it.
+    #[inline(always)]
+    fn levels(&self) -> (f64, f64) {
+        (
+            self.l_ref + self.theta_on - TIE,
+            self.l_ref - self.theta_off + TIE,
+        )
+    }
+
     /// Mark the pixel as having a new sample; returns whether it was unmarked.
     #[inline]
     pub(super) fn mark_changed(&mut self) -> bool {
@@ -187,8 +197,7 @@ impl StepContext<'_> {
         if !r.low_pass() {
             return None;
         }
-        let hi = px.l_ref + px.theta_on - TIE;
-        let lo = px.l_ref - px.theta_off + TIE;
+        let (hi, lo) = px.levels();
         let (l, u) = (px.l, px.u);
         if l < hi && l > lo && u < hi && u > lo {
             return None;
@@ -267,8 +276,7 @@ impl StepContext<'_> {
         let ua = px.u;
         let (ma, mb) = limited_slopes(ma, ends.mb as f64, (ub - ua) * inv_h, r.log_range() * inv_h);
         if r.low_pass() && !px.blind() && px.t == ta && ramp.omega * h >= 0.5 {
-            let hi = px.l_ref + px.theta_on - TIE;
-            let lo = px.l_ref - px.theta_off + TIE;
+            let (hi, lo) = px.levels();
             let inside = |v: f64| v < hi && v > lo;
             let third = h * (1.0 / 3.0);
             let (c1, c2) = (ua + third * ma, ub - third * mb);
@@ -378,8 +386,7 @@ impl StepContext<'_> {
         let ub = ramp.u;
         let curve = Curve::low_pass(ta, tb, px.l, px.u, ub, omega);
         let lb = curve.end_value_from(ramp.relax);
-        let hi = px.l_ref + px.theta_on - TIE;
-        let lo = px.l_ref - px.theta_off + TIE;
+        let (hi, lo) = px.levels();
         let inside = |v: f64| v < hi && v > lo;
         let (ua_in, ub_in) = (inside(px.u), inside(ub));
         if !(inside(lb) && (ua_in && ub_in || !curve.may_turn())) {
@@ -414,8 +421,7 @@ impl StepContext<'_> {
         let omega = r.omega(0.5 * (px.irr as f64 + px.irr as f64));
         let curve = Curve::low_pass(px.t, ta, px.l, px.u, px.u, omega);
         let l = curve.end_value();
-        let hi = px.l_ref + px.theta_on - TIE;
-        let lo = px.l_ref - px.theta_off + TIE;
+        let (hi, lo) = px.levels();
         let inside = |v: f64| v < hi && v > lo;
         if !(inside(l) && (inside(px.u) || !curve.may_turn())) {
             return false;
@@ -455,8 +461,7 @@ impl StepContext<'_> {
 
         // Fast path: not blind, `L` inside both levels at the end and, if it may have an
         // extremum (which lies on the input line), the input inside them too.
-        let hi = px.l_ref + px.theta_on - TIE;
-        let lo = px.l_ref - px.theta_off + TIE;
+        let (hi, lo) = px.levels();
         let inside = |v: f64| v < hi && v > lo;
         let quiet = !px.blind() && inside(lb) && (inside(px.u) && inside(ub) || !curve.may_turn());
         if !quiet {
