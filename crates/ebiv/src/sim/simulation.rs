@@ -48,11 +48,12 @@ pub struct Simulation {
 /// How a pixel's log input runs from one time sample to the next (`[sampling] interpolation`).
 ///
 /// Measured on 50 ms of the `paper-rate` example against a run sampled at 0.025 px per step
-/// (docs/performance.md, eighteenth session): at 0.25 px per step, `Linear` puts the events a
+/// (docs/performance.md, nineteenth session): `Linear` at 0.25 px per step puts the events a
 /// median 3 µs (mean 17 µs, 30 % beyond 5 µs) from the reference's with 0.8 % of the events
-/// unpaired, `Cubic` a median 1 µs (mean 5.5 µs, 4 % beyond 5 µs) with 0.2 % unpaired, for
-/// 1.37 times the CPU time (1.25 at 0.3 px); `Cubic` at 0.5 px per step is a little less
-/// accurate than `Linear` at 0.25 px (median 4 µs, mean 19 µs) and 3 % faster.
+/// unpaired; `Cubic` at 0.25 px a median 0 µs (mean 3.1 µs, 3 % beyond 5 µs, 0.1 % unpaired)
+/// for 1.6 times the CPU time, at 0.5 px a median 1 µs (mean 7.9 µs, 5 % beyond 5 µs, 0.3 %
+/// unpaired) for about the same CPU time, and at 0.75 px about as accurate as `Linear` at
+/// 0.25 px (median 3 µs, mean 17 µs, 25 % beyond 5 µs, 0.7 % unpaired) for 0.86 times it.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq, serde::Deserialize)]
 #[serde(rename_all = "snake_case")]
 pub enum Interpolation {
@@ -62,8 +63,9 @@ pub enum Interpolation {
     /// The cubic Hermite interpolant of the log intensity with its exact time derivatives
     /// at the samples (from the particle images' motion and their drift through the light
     /// sheet; limited where the samples do not resolve them). A pixel that cannot fire in
-    /// the step follows the cubic exactly; one that may fire takes two straight lines
-    /// through the cubic's middle, its crossing times exact for those. For continuous light
+    /// the step follows the cubic exactly; one that may fire takes four straight lines
+    /// through the cubic's values at quarters of the step, its crossing times exact for
+    /// those. For continuous light
     /// without flicker, whose own slopes are not modelled. The first step of a recording
     /// starts flat (the pixels are adapted as to a still scene).
     Cubic,

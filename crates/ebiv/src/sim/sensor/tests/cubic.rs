@@ -139,7 +139,7 @@ fn cubic_samples_follow_a_passing_particle_closer_than_ramps() {
         cubic.len()
     );
     assert!(same_counts(&cubic), "{cubic:?}");
-    assert!(d_cubic < 5.0, "{d_cubic}");
+    assert!(d_cubic < 2.0, "{d_cubic}");
     // The straight lines lose events or place them at least three times farther.
     assert!(!same_counts(&ramps) || d_ramps > 3.0 * d_cubic, "{d_ramps}");
 }
