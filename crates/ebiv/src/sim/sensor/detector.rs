@@ -283,20 +283,20 @@ impl StepContext<'_> {
         let h = tb - ta;
         let ua = px.u;
         let (ma, mb) = limited_slopes(ma, ends.mb as f64, (ub - ua) * inv_h, r.log_range() * inv_h);
+        let cubic = Hermite {
+            ua,
+            ub,
+            ma,
+            mb,
+            h,
+            inv_h,
+        };
         if r.low_pass() && !px.blind() && px.t == ta && ramp.omega * h >= 0.5 {
             let (hi, lo) = px.levels();
             let inside = |v: f64| v < hi && v > lo;
             let third = h * (1.0 / 3.0);
             let (c1, c2) = (ua + third * ma, ub - third * mb);
             if inside(px.l) && inside(ua) && inside(c1) && inside(c2) && inside(ub) {
-                let cubic = Hermite {
-                    ua,
-                    ub,
-                    ma,
-                    mb,
-                    h,
-                    inv_h,
-                };
                 let lb = cubic.low_pass_end(px.l, ends.inv_omega, ramp.relax);
                 if inside(lb) {
                     px.l = lb;
@@ -308,14 +308,6 @@ impl StepContext<'_> {
             }
         }
         if px.t == ta && h > 1e-9 {
-            let cubic = Hermite {
-                ua,
-                ub,
-                ma,
-                mb,
-                h,
-                inv_h,
-            };
             self.cubic_ramps(px, local, (ta, tb), &cubic, irr_b);
         } else {
             self.segment(px, local, tb, Some((irr_b, ub)), None);
