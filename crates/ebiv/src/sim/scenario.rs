@@ -91,7 +91,8 @@ pub struct Sampling {
     pub max_step_us: f64,
     /// How a pixel's input runs between samples: `"linear"` (the default) or `"cubic"`
     /// ([`Interpolation`]: at 0.5 px half the mean timing error of `"linear"` at 0.25 px
-    /// for about the same CPU time; continuous light without flicker only).
+    /// for about the same CPU time, with `max_step_us` raised so that the step can be that
+    /// long; continuous light without flicker only).
     pub interpolation: Interpolation,
 }
 
