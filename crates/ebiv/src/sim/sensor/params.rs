@@ -64,7 +64,9 @@ pub struct SensorParams {
     /// ε of the pure log response `ln(ε + I)`, used when `linlog_threshold` is 0 (ESIM 0.001).
     pub log_eps: f64,
     /// Photoreceptor 3 dB bandwidth (Hz) at and above the reference irradiance; 0 = no
-    /// low-pass (§2.4).
+    /// low-pass (§2.4). No pixel's bandwidth goes below 0.16 mHz (a time constant of
+    /// 1000 s), whatever this and the irradiance: a smaller value is raised to it, and the
+    /// dark irradiance below as far as needed.
     pub cutoff_hz: f64,
     /// Irradiance at which `cutoff_hz` holds; below it the bandwidth scales as
     /// `(I + I_dark)/(I_ref + I_dark)` (v2e's `(I + 20)/275`, §2.4). 0 = bandwidth

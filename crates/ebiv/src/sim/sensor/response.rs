@@ -46,6 +46,15 @@ pub(super) fn clean_irradiance(i: f32) -> f32 {
     }
 }
 
+/// The slowest low-pass corner, rad/µs (a time constant of 1000 s, 0.16 mHz): any slower is
+/// frozen over a recording, and the exact low-pass step `L_a + gap·(1 − e^(−x)) + m·(Δt −
+/// (1 − e^(−x))/ω)` loses its lag term there: `1 − e^(−x)` keeps an absolute error of 1e-16,
+/// so the lag's is 1e-16/ω µs, and for ω·Δt < 1e-16 the lag is 0 and `L` follows its input
+/// (a corner of 1e-13 Hz gave a hundred times the events of one of 1e-11 Hz; a pixel in near
+/// darkness with `cutoff_dark_irradiance = 0` would too). At the floor the lag's error moves
+/// `L` by at most 1e-7 times the input's slope per µs.
+pub(super) const OMEGA_FLOOR: f64 = 1e-9;
+
 /// The smallest per-pixel threshold (v2e clamps mismatch draws at 0.01).
 pub(super) const MIN_THRESHOLD: f64 = 0.01;
 
@@ -76,7 +85,30 @@ impl Response {
             log_range: 0.0,
         };
         response.log_range = response.log(f32::MAX) - response.log(0.0);
+        response.floor_omega();
         response
+    }
+
+    /// Raise the corner at and above the reference, and the dark irradiance, so that no
+    /// irradiance gets a corner below [`OMEGA_FLOOR`] (ω ≥ `omega_max·dark/(reference +
+    /// dark)`); with the low-pass off, nothing. The presets' corners lie far above the floor
+    /// and are not changed, so the floor costs the pixel updates nothing.
+    fn floor_omega(&mut self) {
+        if !self.low_pass() {
+            return;
+        }
+        self.omega_max = self.omega_max.max(OMEGA_FLOOR);
+        if self.reference > 0.0 {
+            // The darkest pixel's share of the corner, dark/(reference + dark), at least q.
+            let q = OMEGA_FLOOR / self.omega_max;
+            if q >= 1.0 {
+                // Every pixel at the floor: a bandwidth independent of irradiance.
+                self.reference = 0.0;
+            } else if self.dark * (1.0 - q) < q * self.reference {
+                self.dark = q * self.reference / (1.0 - q);
+                self.inv_span = 1.0 / (self.reference + self.dark);
+            }
+        }
     }
 
     /// The whole range of the log response, from irradiance 0 to the largest `f32`.
@@ -156,7 +188,8 @@ impl Response {
         }
     }
 
-    /// The low-pass corner `ω = 1/τ` in 1/µs at irradiance `i`.
+    /// The low-pass corner `ω = 1/τ` in 1/µs at irradiance `i` (at least [`OMEGA_FLOOR`],
+    /// to within rounding, with the low-pass on: [`Response::new`]).
     #[inline]
     pub fn omega(&self, i: f64) -> f64 {
         match self.brightness(i) {
@@ -531,7 +564,8 @@ impl Curve {
 
 #[cfg(test)]
 mod tests {
-    use super::Curve;
+    use super::{Curve, Relaxation, Response, OMEGA_FLOOR};
+    use crate::sim::sensor::SensorParams;
     use crate::test_rng::xorshift;
 
     /// `s` in `[s0, s1]` where the monotone `curve` reaches `level`, by bisection.
@@ -596,5 +630,44 @@ mod tests {
             hermite_error < 0.35 * linear_error,
             "{hermite_error} vs {linear_error}"
         );
+    }
+
+    /// A corner of 1e-13 Hz, or a pixel in near darkness without a dark irradiance, takes the
+    /// slowest corner, [`OMEGA_FLOOR`]: over a 100 µs ramp `L` then barely moves, as the exact
+    /// solution `L = L_a + gap·x + m·Δt·(x/2 − …)`, `x = ω·Δt`, says (before the floor, `1 −
+    /// e^(−x)` rounded to 0 made `L` follow its input with no lag at all). Without a low-pass
+    /// there is no floor, and a normal corner is not touched by it.
+    #[test]
+    fn a_frozen_low_pass_stays_frozen() {
+        let slow = SensorParams {
+            cutoff_hz: 1e-13,
+            ..SensorParams::gen4()
+        };
+        let dark = SensorParams {
+            cutoff_dark_irradiance: 0.0,
+            ..SensorParams::gen4()
+        };
+        let (h, la, ua, ub) = (100.0, 0.25, 0.5, 1.5);
+        for (params, irradiance) in [(&slow, 1.0), (&dark, 1e-30), (&dark, 0.0)] {
+            let omega = Response::new(params).omega(irradiance);
+            assert!((omega / OMEGA_FLOOR - 1.0).abs() < 1e-12, "{omega}");
+            let x = omega * h;
+            let exact = la + (ua - la) * x + (ub - ua) * x / 2.0;
+            let curve = Curve::low_pass(0.0, h, la, ua, ub, omega);
+            for l in [
+                curve.end_value(),
+                curve.end_value_from(Relaxation::new(omega, h)),
+                curve.value_fast(h, curve.inv_omega()),
+            ] {
+                assert!((l - exact).abs() < 1e-8, "{l} against {exact}");
+            }
+        }
+        let off = SensorParams {
+            cutoff_hz: 0.0,
+            ..SensorParams::gen4()
+        };
+        assert_eq!(Response::new(&off).omega(1.0), 0.0);
+        let gen4 = Response::new(&SensorParams::gen4());
+        assert_eq!(gen4.omega(1e6), std::f64::consts::TAU * 1e4 * 1e-6);
     }
 }
