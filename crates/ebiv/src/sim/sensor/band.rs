@@ -386,9 +386,13 @@ impl SensorBand {
                     crate::simd::prefetch(px);
                 }
             }
-            let old: [f32; PREPARE_LANES] =
-                std::array::from_fn(|k| pixels[batch[k].0 as usize].irr);
-            let new: [f32; PREPARE_LANES] = std::array::from_fn(|k| batch[k].1);
+            // Loops rather than `std::array::from_fn`, which the compiler stopped inlining
+            // here once the cubic step was inlined beside it (a call per batch).
+            let (mut old, mut new) = ([0.0f32; PREPARE_LANES], [0.0f32; PREPARE_LANES]);
+            for ((old, new), &(local, irr)) in old.iter_mut().zip(&mut new).zip(batch) {
+                *old = pixels[local as usize].irr;
+                *new = irr;
+            }
             ramps.extend(StepContext::prepare_lanes(ctx.response, old, new, dt));
         }
         ramps.extend(batches.remainder().iter().map(|&(local, irr)| {

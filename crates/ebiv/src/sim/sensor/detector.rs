@@ -400,12 +400,16 @@ impl StepContext<'_> {
             *w = r.omega(0.5 * (a as f64 + b as f64));
         }
         let relax = Relaxation::lanes(omega, dt);
-        std::array::from_fn(|k| Ramp {
-            u: u[k],
-            omega: omega[k],
-            relax: relax[k],
-            irr: irr[k],
-        })
+        let mut ramps = [Ramp::default(); N];
+        for (k, ramp) in ramps.iter_mut().enumerate() {
+            *ramp = Ramp {
+                u: u[k],
+                omega: omega[k],
+                relax: relax[k],
+                irr: irr[k],
+            };
+        }
+        ramps
     }
 
     /// The common case of [`StepContext::step`] with a new sample, done without a call: a
