@@ -51,8 +51,8 @@ pub(super) fn clean_irradiance(i: f32) -> f32 {
 /// (1 − e^(−x))/ω)` loses its lag term there: `1 − e^(−x)` keeps an absolute error of 1e-16,
 /// so the lag's is 1e-16/ω µs, and for ω·Δt < 1e-16 the lag is 0 and `L` follows its input
 /// (a corner of 1e-13 Hz gave a hundred times the events of one of 1e-11 Hz; a pixel in near
-/// darkness with `cutoff_dark_irradiance = 0` would too). At the floor the lag's error moves
-/// `L` by at most 1e-7 times the input's slope per µs.
+/// darkness with `cutoff_dark_irradiance = 0` would too). At the floor the lag is off by at
+/// most 1e-7 µs, which moves `L` by the input's slope (per µs) times 1e-7.
 pub(super) const OMEGA_FLOOR: f64 = 1e-9;
 
 /// The smallest per-pixel threshold (v2e clamps mismatch draws at 0.01).
