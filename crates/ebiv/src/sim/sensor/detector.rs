@@ -359,9 +359,9 @@ impl StepContext<'_> {
             start = irr;
         }
         let relax = Relaxation::lanes(omega, cubic.h * (1.0 / N as f64));
-        for ((&(t, irr, u), &w), relax) in ends.iter().zip(&omega).zip(relax) {
-            let relax = (r.low_pass() && w > 0.0).then_some(relax);
-            self.segment(px, local, t, Some((irr, u)), relax);
+        // With the low-pass on, every corner is positive (`OMEGA_FLOOR`).
+        for (&(t, irr, u), relax) in ends.iter().zip(relax) {
+            self.segment(px, local, t, Some((irr, u)), r.low_pass().then_some(relax));
         }
     }
 
