@@ -1119,7 +1119,7 @@ mod tests {
             duration_us: 60_000,
             step_px: 0.1,
             max_step_us: 20.0,
-            interpolation: Default::default(),
+            interpolation: crate::sim::simulation::Interpolation::Linear,
             seed: 17,
         };
         for flicker_hz in [0.0, 100.0] {

@@ -3,7 +3,7 @@
 
 use super::flow::FlowSpec;
 use super::particles::SeedingParams;
-use super::scene::IlluminationParams;
+use super::scene::{IlluminationParams, LightMode};
 use super::sensor::{SensorParams, TimestampMode};
 use super::simulation::{Interpolation, Simulation};
 use crate::error::{Error, Result};
@@ -74,35 +74,49 @@ fn default_preset() -> String {
     "gen4".into()
 }
 
-/// `[sampling]`: how finely time is sampled.
-#[derive(Debug, Clone, serde::Deserialize)]
+/// `[sampling]`: how finely time is sampled. A key left out takes the default for the
+/// scenario's light ([`Sampling::resolve`]).
+#[derive(Debug, Clone, Default, serde::Deserialize)]
 #[serde(deny_unknown_fields, default)]
 pub struct Sampling {
-    /// Largest particle displacement between samples, px. Crossing times are exact for the
-    /// log intensity interpolated between samples (`interpolation`); the interpolation is
-    /// the error. The figures below are for the linear interpolation.
-    /// On 100 ms of the `paper-rate` example (1.5 px/ms), against 0.05 px per step (whose
-    /// own events are 77 % identical to those of 0.025 px, mean |Δt| 1.1 µs): 0.25 px gives
-    /// 0.7 % fewer events and a median |Δt| of 3 µs (0.005 px of travel; mean 12 µs, 30 % of
-    /// the events beyond 5 µs), 0.125 px gives 0.2 % fewer events and a median |Δt| of 1 µs.
-    /// sensor-model.md §10 recommends at most 0.05 px per step.
-    pub step_px: f64,
-    /// Longest interval between samples, µs.
-    pub max_step_us: f64,
-    /// How a pixel's input runs between samples: `"linear"` (the default) or `"cubic"`
-    /// ([`Interpolation`]: at 0.5 px half the mean timing error of `"linear"` at 0.25 px
-    /// for about the same CPU time, with `max_step_us` raised so that the step can be that
-    /// long; continuous light without flicker only).
-    pub interpolation: Interpolation,
+    /// Largest particle displacement between samples, px: by default 0.75 with the cubic
+    /// interpolation, 0.25 with the linear. Crossing times are exact for the log intensity
+    /// interpolated between samples (`interpolation`); the interpolation is the error
+    /// ([`Interpolation`] gives it for both defaults). sensor-model.md §10 recommends at most
+    /// 0.05 px per step for a linear interpolation.
+    pub step_px: Option<f64>,
+    /// Longest interval between samples, µs: by default 600 with the cubic interpolation,
+    /// 200 with the linear.
+    pub max_step_us: Option<f64>,
+    /// How a pixel's input runs between samples: `"cubic"` (the default for continuous
+    /// light without flicker) or `"linear"` (the default for pulsed or flickering light, the
+    /// only one those allow); see [`Interpolation`].
+    pub interpolation: Option<Interpolation>,
 }
 
-impl Default for Sampling {
-    fn default() -> Self {
-        Sampling {
-            step_px: 0.25,
-            max_step_us: 200.0,
-            interpolation: Interpolation::Linear,
-        }
+impl Sampling {
+    /// The interpolation, `step_px` and `max_step_us` of this table for a scene lit by
+    /// `light`, defaults filled in: the cubic interpolation at 0.75 px and 600 µs where the
+    /// light is continuous without flicker (as accurate as the linear at 0.25 px and 200 µs
+    /// on the five examples, for 0.6–0.88 of its CPU time; docs/performance.md, nineteenth
+    /// and twentieth sessions), otherwise the linear at 0.25 px and 200 µs. The step's
+    /// defaults follow the interpolation, also where it is given.
+    pub fn resolve(&self, light: &IlluminationParams) -> (Interpolation, f64, f64) {
+        let steady = light.mode == LightMode::Continuous && light.flicker_hz <= 0.0;
+        let interpolation = self.interpolation.unwrap_or(if steady {
+            Interpolation::Cubic
+        } else {
+            Interpolation::Linear
+        });
+        let (step_px, max_step_us) = match interpolation {
+            Interpolation::Cubic => (0.75, 600.0),
+            Interpolation::Linear => (0.25, 200.0),
+        };
+        (
+            interpolation,
+            self.step_px.unwrap_or(step_px),
+            self.max_step_us.unwrap_or(max_step_us),
+        )
     }
 }
 
@@ -265,6 +279,7 @@ impl Scenario {
 
     /// The simulation this scenario describes.
     pub fn simulation(&self) -> Result<Simulation> {
+        let (interpolation, step_px, max_step_us) = self.sampling.resolve(&self.illumination);
         let sim = Simulation {
             geometry: Geometry::new(self.sensor.width, self.sensor.height),
             flow: self.flow.build()?,
@@ -273,9 +288,9 @@ impl Scenario {
             sensor: self.sensor_params()?,
             start_us: self.start,
             duration_us: self.duration,
-            step_px: self.sampling.step_px,
-            max_step_us: self.sampling.max_step_us,
-            interpolation: self.sampling.interpolation,
+            step_px,
+            max_step_us,
+            interpolation,
             seed: self.seed,
         };
         sim.validate()?;
@@ -373,12 +388,29 @@ mod tests {
     #[test]
     fn the_interpolation_is_read_from_the_sampling_table() {
         let text = Scenario::example("uniform").unwrap();
+        let steps = |sim: &Simulation| (sim.interpolation, sim.step_px, sim.max_step_us);
+        // Continuous light without flicker: the cubic by default, with its own steps.
         let default = parse(text, "t").unwrap().simulation().unwrap();
-        assert_eq!(default.interpolation, Interpolation::Linear);
-        let cubic = format!("{text}\n[sampling]\ninterpolation = \"cubic\"\n");
-        let sim = parse(&cubic, "t").unwrap().simulation().unwrap();
-        assert_eq!(sim.interpolation, Interpolation::Cubic);
-        let bad = cubic.replace("\"cubic\"", "\"quadratic\"");
+        assert_eq!(steps(&default), (Interpolation::Cubic, 0.75, 600.0));
+        let linear = format!("{text}\n[sampling]\ninterpolation = \"linear\"\n");
+        let sim = parse(&linear, "t").unwrap().simulation().unwrap();
+        assert_eq!(steps(&sim), (Interpolation::Linear, 0.25, 200.0));
+        let given = format!("{text}\n[sampling]\nstep_px = 0.5\n");
+        let sim = parse(&given, "t").unwrap().simulation().unwrap();
+        assert_eq!(steps(&sim), (Interpolation::Cubic, 0.5, 600.0));
+        // Pulsed or flickering light: only the linear, which is then the default.
+        let pulsed = |s: &mut Scenario| s.illumination.mode = LightMode::Pulsed;
+        let flicker = |s: &mut Scenario| s.illumination.flicker_hz = 100.0;
+        for light in [pulsed, flicker] {
+            let mut lit = parse(text, "t").unwrap();
+            light(&mut lit);
+            let sim = lit.simulation().unwrap();
+            assert_eq!(steps(&sim), (Interpolation::Linear, 0.25, 200.0));
+            lit.sampling.interpolation = Some(Interpolation::Cubic);
+            let err = lit.simulation().unwrap_err().to_string();
+            assert!(err.contains("use \"linear\""), "{err}");
+        }
+        let bad = linear.replace("\"linear\"", "\"quadratic\"");
         let err = parse(&bad, "t").unwrap_err().to_string();
         assert!(err.contains("quadratic") && err.contains("cubic"), "{err}");
     }

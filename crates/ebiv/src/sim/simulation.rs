@@ -45,7 +45,9 @@ pub struct Simulation {
     pub seed: u64,
 }
 
-/// How a pixel's log input runs from one time sample to the next (`[sampling] interpolation`).
+/// How a pixel's log input runs from one time sample to the next (`[sampling] interpolation`;
+/// a scenario's default is `Cubic` for continuous light without flicker, `Linear` otherwise,
+/// [`super::scenario::Sampling::resolve`]).
 ///
 /// Measured on 50 ms of the `paper-rate` example against a run sampled at 0.025 px per step
 /// (docs/performance.md, nineteenth session): `Linear` at 0.25 px per step puts the events a
@@ -54,13 +56,12 @@ pub struct Simulation {
 /// for 1.6 times the CPU time, at 0.5 px a median 1 µs (mean 7.9 µs, 5 % beyond 5 µs, 0.3 %
 /// unpaired) for about the same CPU time, and at 0.75 px about as accurate as `Linear` at
 /// 0.25 px (median 3 µs, mean 17 µs, 25 % beyond 5 µs, 0.7 % unpaired) for 0.86 times it
-/// (every run with `max_step_us = 1000`: at that scene's 1.5 px/ms the default 200 µs would
-/// cut 0.5 px steps to 0.3 px).
-#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, serde::Deserialize)]
+/// (every run with `max_step_us = 1000`: at that scene's 1.5 px/ms the linear default's
+/// 200 µs would cut 0.5 px steps to 0.3 px).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Deserialize)]
 #[serde(rename_all = "snake_case")]
 pub enum Interpolation {
     /// A straight line in log intensity (ESIM's interpolation).
-    #[default]
     Linear,
     /// The cubic Hermite interpolant of the log intensity with its exact time derivatives
     /// at the samples (from the particle images' motion and their drift through the light
