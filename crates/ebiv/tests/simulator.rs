@@ -137,17 +137,27 @@ fn a_static_scene_gives_only_noise_at_the_configured_rate() {
 
 #[test]
 fn same_seed_same_events_on_any_number_of_threads() {
-    let sim = simulation(uniform(2.0, -1.0), SensorParams::gen4(), 0.004, 5_000);
-    let run_with = |threads| {
-        rayon::ThreadPoolBuilder::new()
-            .num_threads(threads)
-            .build()
-            .unwrap()
-            .install(|| run(&sim, None).events)
-    };
-    let one = run_with(1);
-    assert!(one.len() > 100);
-    assert_eq!(one, run_with(3));
+    for (interpolation, step_px, max_step_us) in [
+        (Interpolation::Linear, 0.05, 20.0),
+        (Interpolation::Cubic, 0.75, 600.0),
+    ] {
+        let sim = Simulation {
+            interpolation,
+            step_px,
+            max_step_us,
+            ..simulation(uniform(2.0, -1.0), SensorParams::gen4(), 0.004, 5_000)
+        };
+        let run_with = |threads| {
+            rayon::ThreadPoolBuilder::new()
+                .num_threads(threads)
+                .build()
+                .unwrap()
+                .install(|| run(&sim, None).events)
+        };
+        let one = run_with(1);
+        assert!(one.len() > 100, "{interpolation:?}");
+        assert_eq!(one, run_with(3), "{interpolation:?}");
+    }
 }
 
 /// Streaming gives the events of a run in pieces: in time order, their concatenation the
@@ -156,8 +166,20 @@ fn same_seed_same_events_on_any_number_of_threads() {
 fn streamed_events_are_the_runs_in_pieces_and_a_sink_error_stops_it() {
     let mut sensor = SensorParams::gen4();
     sensor.bandwidth_ev_per_s = Some(2e6);
-    let sim = simulation(uniform(3.0, 0.5), sensor, 0.01, 60_000);
-    let whole = run(&sim, Some(500.0));
+    let linear = simulation(uniform(3.0, 0.5), sensor, 0.01, 60_000);
+    let cubic = Simulation {
+        interpolation: Interpolation::Cubic,
+        step_px: 0.75,
+        max_step_us: 600.0,
+        ..simulation(uniform(3.0, 0.5), linear.sensor.clone(), 0.01, 60_000)
+    };
+    for sim in [linear, cubic] {
+        streamed_events_are_the_runs_in_pieces(&sim);
+    }
+}
+
+fn streamed_events_are_the_runs_in_pieces(sim: &Simulation) {
+    let whole = run(sim, Some(500.0));
     let mut pieces = Vec::new();
     let streamed = sim
         .run_streaming(Some(500.0), &|_| {}, &mut |events| {
@@ -217,9 +239,9 @@ fn absurd_speeds_and_particle_counts_are_refused_before_the_run() {
     sim.validate().unwrap();
 }
 
-/// Per pixel and polarity, the k-th event of `a` against the k-th of `b`: the mean |Δt| of
-/// the pairs, µs, and how many events of either have no partner.
-fn paired_distance(a: &SimOutput, b: &SimOutput) -> (f64, usize) {
+/// Per pixel and polarity, the k-th event of `a` against the k-th of `b`: the sum of |Δt|
+/// over the pairs, µs, their number, and how many events of either have no partner.
+fn paired(a: &SimOutput, b: &SimOutput) -> (i64, usize, usize) {
     use std::collections::HashMap;
     let lists = |out: &SimOutput| {
         let mut lists: HashMap<(u16, u16, u8), Vec<i64>> = HashMap::new();
@@ -243,12 +265,17 @@ fn paired_distance(a: &SimOutput, b: &SimOutput) -> (f64, usize) {
         .filter(|k| !la.contains_key(k))
         .map(|k| lb[k].len())
         .sum::<usize>();
+    (sum, pairs, unpaired)
+}
+
+/// [`paired`]: the mean |Δt| of the pairs, µs, and the events without a partner.
+fn paired_distance(a: &SimOutput, b: &SimOutput) -> (f64, usize) {
+    let (sum, pairs, unpaired) = paired(a, b);
     (sum as f64 / pairs.max(1) as f64, unpaired)
 }
 
 /// `[sampling] interpolation = "cubic"`: at the same coarse step, the events come far closer
-/// to those of a fine sampling than with straight lines between the samples; and at 0.75 px,
-/// the default for continuous light, about as close as straight lines at 0.25 px.
+/// to those of a fine sampling than with straight lines between the samples.
 #[test]
 fn cubic_interpolation_follows_fine_sampling_closer_than_ramps() {
     let mut sensor = SensorParams::gen4();
@@ -275,18 +302,48 @@ fn cubic_interpolation_follows_fine_sampling_closer_than_ramps() {
     assert!(reference.events.len() > 5000, "{}", reference.events.len());
     assert!(d_cubic < 0.3 * d_ramps, "{d_cubic} against {d_ramps}");
     assert!(u_cubic < u_ramps / 4, "{u_cubic} against {u_ramps}");
-    // The default for continuous light (cubic, 0.75 px) against the linear default it
-    // replaced (0.25 px).
-    let linear = run(&sampled(0.25, Interpolation::Linear), None);
-    let default = run(&sampled(0.75, Interpolation::Cubic), None);
-    let (d_linear, u_linear) = paired_distance(&linear, &reference);
-    let (d_default, u_default) = paired_distance(&default, &reference);
+}
+
+/// The default for continuous light, the cubic at 0.75 px, against the linear at 0.25 px it
+/// replaced as the default: about as close to a fine sampling. Pooled over eight seeds, as
+/// single recordings of this size scatter (ratios of the mean |Δt| 0.80–1.19 per seed on
+/// this scene). Measured: 12.05 µs and 790 events unpaired against 11.93 µs and 817; the
+/// cubic at 0.9 px gives 17.0 µs and 1087 and fails.
+#[test]
+fn the_default_cubic_sampling_is_about_as_accurate_as_the_linear_it_replaced() {
+    let mut sensor = SensorParams::gen4();
+    sensor.jitter_us = 0.0;
+    sensor.leak_rate_hz = 0.0;
+    sensor.shot_noise_rate_hz = 0.0;
+    sensor.hot_pixel_fraction = 0.0;
+    let (mut linear, mut default) = ((0, 0, 0), (0, 0, 0));
+    let add = |total: &mut (i64, usize, usize), (sum, pairs, unpaired)| {
+        total.0 += sum;
+        total.1 += pairs;
+        total.2 += unpaired;
+    };
+    for seed in 1..=8 {
+        let sampled = |step_px: f64, interpolation: Interpolation| Simulation {
+            step_px,
+            max_step_us: 1000.0,
+            interpolation,
+            seed,
+            ..simulation(uniform(1.5, 0.2), sensor.clone(), 0.003, 20_000)
+        };
+        let reference = run(&sampled(0.025, Interpolation::Linear), None);
+        let lin = run(&sampled(0.25, Interpolation::Linear), None);
+        let cubic = run(&sampled(0.75, Interpolation::Cubic), None);
+        add(&mut linear, paired(&lin, &reference));
+        add(&mut default, paired(&cubic, &reference));
+    }
+    let mean = |(sum, pairs, _): (i64, usize, usize)| sum as f64 / pairs.max(1) as f64;
+    let (d_linear, d_default) = (mean(linear), mean(default));
+    let (u_linear, u_default) = (linear.2, default.2);
     println!(
-        "linear 0.25 px: mean |Δt| {d_linear:.2} µs, {u_linear} unpaired; cubic 0.75 px: \
-         {d_default:.2} µs, {u_default} unpaired"
+        "eight seeds: linear 0.25 px mean |Δt| {d_linear:.2} µs, {u_linear} unpaired; cubic \
+         0.75 px {d_default:.2} µs, {u_default} unpaired"
     );
-    // Measured: 10.0 µs and 97 unpaired against 10.3 µs and 106 (on `paper-rate`, 16.9 µs
-    // for both; at 1 px per step the cubic's own error would double it).
+    assert!(linear.1 > 50_000, "{} pairs", linear.1);
     assert!(
         d_default <= 1.1 * d_linear,
         "{d_default} against {d_linear}"

@@ -45,6 +45,11 @@ pub struct SimulateBenchArgs {
     /// How many runs; the best is reported.
     #[arg(long, default_value_t = 3)]
     pub repeat: u32,
+    /// Also time the run as `ebiv simulate` does it: the events streamed to FILE (any
+    /// writer format by extension; EVT 3.0 for .raw) as they are read out, instead of kept
+    /// in memory. The file is left in place.
+    #[arg(long, value_name = "FILE")]
+    pub output: Option<PathBuf>,
 }
 
 #[derive(Debug, Args)]
@@ -76,25 +81,63 @@ fn simulate(args: &SimulateBenchArgs) -> Result<(), ebiv::Error> {
         None => args.example.clone(),
     };
     let sim = scenario.simulation()?;
-    let mut best = f64::INFINITY;
-    let mut best_cpu = None;
-    let mut events = 0;
-    for _ in 0..args.repeat.max(1) {
-        let (start, cpu_start) = (Instant::now(), process_cpu_seconds());
-        let out = sim.run(None, &|_| {})?;
-        let elapsed = start.elapsed().as_secs_f64();
-        if elapsed < best {
-            best = elapsed;
-            best_cpu = cpu_start.zip(process_cpu_seconds()).map(|(a, b)| b - a);
-        }
-        events = out.events.len();
+    let kept = time_best(args.repeat, || Ok(sim.run(None, &|_| {})?.events.len()))?;
+    report_simulate(&format!("simulate {name}"), &sim, args, kept, "");
+    if let Some(path) = &args.output {
+        let format = ebiv::io::write::format_for_path(path)?;
+        let streamed = time_best(args.repeat, || {
+            let mut writer = ebiv::io::write::create(path, format, Some(sim.geometry))?;
+            let mut events = 0;
+            let mut sink = |batch: &ebiv::EventBuffer| {
+                events += batch.len();
+                writer.write(batch)
+            };
+            sim.run_streaming(None, &|_| {}, &mut sink)?;
+            writer.finish()?;
+            Ok(events)
+        })?;
+        let what = format!(
+            ", streamed to {} as `ebiv simulate` writes it",
+            path.display()
+        );
+        report_simulate(&format!("simulate {name}"), &sim, args, streamed, &what);
     }
+    Ok(())
+}
+
+/// The best of `repeat` runs of `run` (which returns how many events it made): `(events,
+/// wall seconds, CPU seconds)` of the fastest.
+fn time_best(
+    repeat: u32,
+    mut run: impl FnMut() -> Result<usize, ebiv::Error>,
+) -> Result<(usize, f64, Option<f64>), ebiv::Error> {
+    let mut best = (0, f64::INFINITY, None);
+    for _ in 0..repeat.max(1) {
+        let (start, cpu_start) = (Instant::now(), process_cpu_seconds());
+        let events = run()?;
+        let elapsed = start.elapsed().as_secs_f64();
+        if elapsed < best.1 {
+            let cpu = cpu_start.zip(process_cpu_seconds()).map(|(a, b)| b - a);
+            best = (events, elapsed, cpu);
+        }
+    }
+    Ok(best)
+}
+
+/// Print one `bench simulate` line: `what` ran `sim`, its best run `(events, wall, cpu)`.
+fn report_simulate(
+    name: &str,
+    sim: &ebiv::sim::simulation::Simulation,
+    args: &SimulateBenchArgs,
+    (events, best, best_cpu): (usize, f64, Option<f64>),
+    what: &str,
+) {
     let simulated_s = args.duration as f64 * 1e-6;
     let cpu = best_cpu
         .map(|c| format!(" ({c:.3} s of CPU time, {:.2} CPUs busy)", c / best))
         .unwrap_or_default();
     println!(
-        "simulate {name}: {} for {}, {events} events ({:.1} M events/s of recording); best of {}: {:.3} s{cpu} = {:.2} M events/s generated on {}",
+        "{name}{what}: {} for {}, {events} events ({:.1} M events/s of recording); best of {}: {:.3} s{cpu} = {:.2} M events/s generated on {}",
         sim.geometry,
         ebiv::units::format_us(args.duration),
         events as f64 / simulated_s * 1e-6,
@@ -103,7 +146,6 @@ fn simulate(args: &SimulateBenchArgs) -> Result<(), ebiv::Error> {
         events as f64 / best * 1e-6,
         worker_threads()
     );
-    Ok(())
 }
 
 /// The CPU time (user and system) this process has used so far, in seconds, where the
