@@ -231,7 +231,7 @@ core_radius = 25.0"#;
 /// 328 / 380 / 279 at τ = 8 ms: random error falls with the number of events per window.
 /// Motion compensation with its defaults, same passes: DVR 211 / 193 / 181 (printed).
 /// (The linearly sampled recordings before the twentieth session, other particles: 609 /
-/// 641 / 537, 413 / 430 / 294, 160 / 166 / 144; motion 205 / 190 / 189.)
+/// 641 / 539, 413 / 430 / 294, 160 / 166 / 143; motion 205 / 190 / 189.)
 /// The first pass's search radius (21 px of a 64 px window) covers 2.6 px/ms at τ = 8 ms;
 /// faster windows are found from their neighbours' prediction in the second pass.
 #[test]

@@ -116,13 +116,14 @@ pub fn run(args: &SimulateArgs) -> Result<(), ebiv::Error> {
     writer.finish()?;
     let seconds = started.elapsed().as_secs_f64();
     println!(
-        "simulated {} of {} ({}) in {:.2} s, writing included: {n} events ({on} ON), {:.2} M events/s, {} samples",
+        "simulated {} of {} ({}) in {:.2} s, writing included: {n} events ({on} ON), {:.2} M events/s, {} samples (sampling: {})",
         ebiv::units::format_us(scenario.duration),
         sim.geometry,
         origin,
         seconds,
         n as f64 / seconds * 1e-6,
-        output.samples
+        output.samples,
+        scenario.sampling.resolve(&scenario.illumination)
     );
     println!("wrote {}", args.output.display());
     let r = &output.readout;

@@ -1095,7 +1095,7 @@ mod tests {
         use crate::sim::particles::SeedingParams;
         use crate::sim::scene::{IlluminationParams, LightMode};
         use crate::sim::sensor::SensorParams;
-        use crate::sim::simulation::Simulation;
+        use crate::sim::simulation::{Interpolation, Simulation};
 
         let simulation = |mode: LightMode, flicker_hz: f64| Simulation {
             geometry: crate::Geometry::new(64, 48),
@@ -1119,7 +1119,7 @@ mod tests {
             duration_us: 60_000,
             step_px: 0.1,
             max_step_us: 20.0,
-            interpolation: crate::sim::simulation::Interpolation::Linear,
+            interpolation: Interpolation::Linear,
             seed: 17,
         };
         for flicker_hz in [0.0, 100.0] {

@@ -94,14 +94,39 @@ pub struct Sampling {
     pub interpolation: Option<Interpolation>,
 }
 
+/// A scenario's time sampling with its defaults filled in ([`Sampling::resolve`]).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ResolvedSampling {
+    /// How a pixel's input runs between samples.
+    pub interpolation: Interpolation,
+    /// Largest particle displacement between samples, px.
+    pub step_px: f64,
+    /// Longest interval between samples, µs.
+    pub max_step_us: f64,
+}
+
+impl std::fmt::Display for ResolvedSampling {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let name = match self.interpolation {
+            Interpolation::Linear => "linear",
+            Interpolation::Cubic => "cubic",
+        };
+        write!(
+            f,
+            "{name}, at most {} px and {} µs per step",
+            self.step_px, self.max_step_us
+        )
+    }
+}
+
 impl Sampling {
-    /// The interpolation, `step_px` and `max_step_us` of this table for a scene lit by
-    /// `light`, defaults filled in: the cubic interpolation at 0.75 px and 600 µs where the
-    /// light is continuous without flicker (as accurate as the linear at 0.25 px and 200 µs
-    /// on the five examples, for 0.6–0.88 of its CPU time; docs/performance.md, nineteenth
-    /// and twentieth sessions), otherwise the linear at 0.25 px and 200 µs. The step's
-    /// defaults follow the interpolation, also where it is given.
-    pub fn resolve(&self, light: &IlluminationParams) -> (Interpolation, f64, f64) {
+    /// This table for a scene lit by `light`, defaults filled in: the cubic interpolation at
+    /// 0.75 px and 600 µs where the light is continuous without flicker (as accurate as the
+    /// linear at 0.25 px and 200 µs on the five examples, for 0.6–0.88 of its CPU time;
+    /// docs/performance.md, nineteenth and twentieth sessions), otherwise the linear at
+    /// 0.25 px and 200 µs. The step's defaults follow the interpolation, also where it is
+    /// given.
+    pub fn resolve(&self, light: &IlluminationParams) -> ResolvedSampling {
         let steady = light.mode == LightMode::Continuous && light.flicker_hz <= 0.0;
         let interpolation = self.interpolation.unwrap_or(if steady {
             Interpolation::Cubic
@@ -112,11 +137,11 @@ impl Sampling {
             Interpolation::Cubic => (0.75, 600.0),
             Interpolation::Linear => (0.25, 200.0),
         };
-        (
+        ResolvedSampling {
             interpolation,
-            self.step_px.unwrap_or(step_px),
-            self.max_step_us.unwrap_or(max_step_us),
-        )
+            step_px: self.step_px.unwrap_or(step_px),
+            max_step_us: self.max_step_us.unwrap_or(max_step_us),
+        }
     }
 }
 
@@ -279,7 +304,11 @@ impl Scenario {
 
     /// The simulation this scenario describes.
     pub fn simulation(&self) -> Result<Simulation> {
-        let (interpolation, step_px, max_step_us) = self.sampling.resolve(&self.illumination);
+        let ResolvedSampling {
+            interpolation,
+            step_px,
+            max_step_us,
+        } = self.sampling.resolve(&self.illumination);
         let sim = Simulation {
             geometry: Geometry::new(self.sensor.width, self.sensor.height),
             flow: self.flow.build()?,
@@ -398,6 +427,15 @@ mod tests {
         let given = format!("{text}\n[sampling]\nstep_px = 0.5\n");
         let sim = parse(&given, "t").unwrap().simulation().unwrap();
         assert_eq!(steps(&sim), (Interpolation::Cubic, 0.5, 600.0));
+        let given = format!("{text}\n[sampling]\nmax_step_us = 100\n");
+        let sim = parse(&given, "t").unwrap().simulation().unwrap();
+        assert_eq!(steps(&sim), (Interpolation::Cubic, 0.75, 100.0));
+        let given = format!("{text}\n[sampling]\ninterpolation = \"cubic\"\n");
+        let sim = parse(&given, "t").unwrap().simulation().unwrap();
+        assert_eq!(steps(&sim), (Interpolation::Cubic, 0.75, 600.0));
+        let shown = parse(text, "t").unwrap().sampling;
+        let shown = shown.resolve(&IlluminationParams::default()).to_string();
+        assert_eq!(shown, "cubic, at most 0.75 px and 600 µs per step");
         // Pulsed or flickering light: only the linear, which is then the default.
         let pulsed = |s: &mut Scenario| s.illumination.mode = LightMode::Pulsed;
         let flicker = |s: &mut Scenario| s.illumination.flicker_hz = 100.0;
@@ -406,8 +444,12 @@ mod tests {
             light(&mut lit);
             let sim = lit.simulation().unwrap();
             assert_eq!(steps(&sim), (Interpolation::Linear, 0.25, 200.0));
+            lit.sampling.step_px = Some(0.1);
+            let sim = lit.simulation().unwrap();
+            assert_eq!(steps(&sim), (Interpolation::Linear, 0.1, 200.0));
             lit.sampling.interpolation = Some(Interpolation::Cubic);
             let err = lit.simulation().unwrap_err().to_string();
+            assert!(err.contains("sampling.interpolation"), "{err}");
             assert!(err.contains("use \"linear\""), "{err}");
         }
         let bad = linear.replace("\"linear\"", "\"quadratic\"");

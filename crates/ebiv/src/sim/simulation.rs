@@ -2,8 +2,9 @@
 //! and each band's pixels run through the sensor model (sensor-model.md §0 pipeline).
 //!
 //! Time is sampled finely enough that no particle moves more than `step_px` between samples
-//! (and at every corner of a light pulse); between samples each pixel's irradiance varies
-//! linearly and the sensor finds exact threshold-crossing times. Bands of rows run in
+//! (and at every corner of a light pulse); between samples each pixel's log irradiance follows
+//! the [`Interpolation`] (a line, or the cubic Hermite interpolant of the samples and their
+//! slopes) and the sensor finds exact threshold-crossing times for it. Bands of rows run in
 //! parallel; all randomness is per pixel or per particle, so the result does not depend on
 //! the number of threads. The events of each batch of samples are read out
 //! ([`StreamingReadout`]) while the bands simulate the next batch.
@@ -199,13 +200,13 @@ impl Simulation {
         }
         if !(self.step_px > 0.0 && self.step_px <= 1.0) {
             return Err(Error::parameter(
-                "step_px",
+                "sampling.step_px",
                 format!("{} must be in (0, 1]", self.step_px),
             ));
         }
         if !(self.max_step_us >= 0.5 && self.max_step_us <= 1000.0) {
             return Err(Error::parameter(
-                "max_step_us",
+                "sampling.max_step_us",
                 format!("{} must be in [0.5, 1000]", self.max_step_us),
             ));
         }
