@@ -274,15 +274,22 @@ fn paired_distance(a: &SimOutput, b: &SimOutput) -> (f64, usize) {
     (sum as f64 / pairs.max(1) as f64, unpaired)
 }
 
-/// `[sampling] interpolation = "cubic"`: at the same coarse step, the events come far closer
-/// to those of a fine sampling than with straight lines between the samples.
-#[test]
-fn cubic_interpolation_follows_fine_sampling_closer_than_ramps() {
+/// The `gen4` pixels without jitter and noise, so that two samplings of one scene can be
+/// compared event by event.
+fn gen4_without_noise_or_jitter() -> SensorParams {
     let mut sensor = SensorParams::gen4();
     sensor.jitter_us = 0.0;
     sensor.leak_rate_hz = 0.0;
     sensor.shot_noise_rate_hz = 0.0;
     sensor.hot_pixel_fraction = 0.0;
+    sensor
+}
+
+/// `[sampling] interpolation = "cubic"`: at the same coarse step, the events come far closer
+/// to those of a fine sampling than with straight lines between the samples.
+#[test]
+fn cubic_interpolation_follows_fine_sampling_closer_than_ramps() {
+    let sensor = gen4_without_noise_or_jitter();
     let sampled = |step_px: f64, interpolation: Interpolation| Simulation {
         step_px,
         max_step_us: 1000.0,
@@ -311,11 +318,7 @@ fn cubic_interpolation_follows_fine_sampling_closer_than_ramps() {
 /// cubic at 0.9 px gives 17.0 µs and 1087 and fails.
 #[test]
 fn the_default_cubic_sampling_is_about_as_accurate_as_the_linear_it_replaced() {
-    let mut sensor = SensorParams::gen4();
-    sensor.jitter_us = 0.0;
-    sensor.leak_rate_hz = 0.0;
-    sensor.shot_noise_rate_hz = 0.0;
-    sensor.hot_pixel_fraction = 0.0;
+    let sensor = gen4_without_noise_or_jitter();
     let (mut linear, mut default) = ((0, 0, 0), (0, 0, 0));
     let add = |total: &mut (i64, usize, usize), (sum, pairs, unpaired)| {
         total.0 += sum;

@@ -420,20 +420,18 @@ mod tests {
         let text = Scenario::example("uniform").unwrap();
         let steps = |sim: &Simulation| (sim.interpolation, sim.step_px, sim.max_step_us);
         // Continuous light without flicker: the cubic by default, with its own steps.
-        let default = parse(text, "t").unwrap().simulation().unwrap();
-        assert_eq!(steps(&default), (Interpolation::Cubic, 0.75, 600.0));
-        let linear = format!("{text}\n[sampling]\ninterpolation = \"linear\"\n");
-        let sim = parse(&linear, "t").unwrap().simulation().unwrap();
-        assert_eq!(steps(&sim), (Interpolation::Linear, 0.25, 200.0));
-        let given = format!("{text}\n[sampling]\nstep_px = 0.5\n");
-        let sim = parse(&given, "t").unwrap().simulation().unwrap();
-        assert_eq!(steps(&sim), (Interpolation::Cubic, 0.5, 600.0));
-        let given = format!("{text}\n[sampling]\nmax_step_us = 100\n");
-        let sim = parse(&given, "t").unwrap().simulation().unwrap();
-        assert_eq!(steps(&sim), (Interpolation::Cubic, 0.75, 100.0));
-        let given = format!("{text}\n[sampling]\ninterpolation = \"cubic\"\n");
-        let sim = parse(&given, "t").unwrap().simulation().unwrap();
-        assert_eq!(steps(&sim), (Interpolation::Cubic, 0.75, 600.0));
+        use Interpolation::{Cubic, Linear};
+        for (sampling, expected) in [
+            ("", (Cubic, 0.75, 600.0)),
+            ("interpolation = \"linear\"", (Linear, 0.25, 200.0)),
+            ("step_px = 0.5", (Cubic, 0.5, 600.0)),
+            ("max_step_us = 100", (Cubic, 0.75, 100.0)),
+            ("interpolation = \"cubic\"", (Cubic, 0.75, 600.0)),
+        ] {
+            let given = format!("{text}\n[sampling]\n{sampling}\n");
+            let sim = parse(&given, "t").unwrap().simulation().unwrap();
+            assert_eq!(steps(&sim), expected, "{sampling}");
+        }
         let shown = parse(text, "t").unwrap().sampling;
         let shown = shown.resolve(&IlluminationParams::default()).to_string();
         assert_eq!(shown, "cubic, at most 0.75 px and 600 µs per step");
@@ -453,7 +451,7 @@ mod tests {
             assert!(err.contains("sampling.interpolation"), "{err}");
             assert!(err.contains("use \"linear\""), "{err}");
         }
-        let bad = linear.replace("\"linear\"", "\"quadratic\"");
+        let bad = format!("{text}\n[sampling]\ninterpolation = \"quadratic\"\n");
         let err = parse(&bad, "t").unwrap_err().to_string();
         assert!(err.contains("quadratic") && err.contains("cubic"), "{err}");
     }
