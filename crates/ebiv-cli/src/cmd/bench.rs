@@ -81,8 +81,9 @@ fn simulate(args: &SimulateBenchArgs) -> Result<(), ebiv::Error> {
         None => args.example.clone(),
     };
     let sim = scenario.simulation()?;
+    let label = format!("simulate {name}");
     let kept = time_best(args.repeat, || Ok(sim.run(None, &|_| {})?.events.len()))?;
-    report_simulate(&format!("simulate {name}"), &sim, args, kept, "");
+    report_simulate(&label, &sim, args, kept);
     if let Some(path) = &args.output {
         let format = ebiv::io::write::format_for_path(path)?;
         let streamed = time_best(args.repeat, || {
@@ -96,11 +97,11 @@ fn simulate(args: &SimulateBenchArgs) -> Result<(), ebiv::Error> {
             writer.finish()?;
             Ok(events)
         })?;
-        let what = format!(
-            ", streamed to {} as `ebiv simulate` writes it",
+        let label = format!(
+            "{label}, streamed to {} as `ebiv simulate` writes it",
             path.display()
         );
-        report_simulate(&format!("simulate {name}"), &sim, args, streamed, &what);
+        report_simulate(&label, &sim, args, streamed);
     }
     Ok(())
 }
@@ -124,20 +125,20 @@ fn time_best(
     Ok(best)
 }
 
-/// Print one `bench simulate` line: `what` ran `sim`, its best run `(events, wall, cpu)`.
+/// Print one `bench simulate` line, `label` first: the best run `(events, wall, cpu)` of
+/// `sim`.
 fn report_simulate(
-    name: &str,
+    label: &str,
     sim: &ebiv::sim::simulation::Simulation,
     args: &SimulateBenchArgs,
     (events, best, best_cpu): (usize, f64, Option<f64>),
-    what: &str,
 ) {
     let simulated_s = args.duration as f64 * 1e-6;
     let cpu = best_cpu
         .map(|c| format!(" ({c:.3} s of CPU time, {:.2} CPUs busy)", c / best))
         .unwrap_or_default();
     println!(
-        "{name}{what}: {} for {}, {events} events ({:.1} M events/s of recording); best of {}: {:.3} s{cpu} = {:.2} M events/s generated on {}",
+        "{label}: {} for {}, {events} events ({:.1} M events/s of recording); best of {}: {:.3} s{cpu} = {:.2} M events/s generated on {}",
         sim.geometry,
         ebiv::units::format_us(args.duration),
         events as f64 / simulated_s * 1e-6,

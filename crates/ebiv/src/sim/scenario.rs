@@ -3,7 +3,7 @@
 
 use super::flow::FlowSpec;
 use super::particles::SeedingParams;
-use super::scene::{IlluminationParams, LightMode};
+use super::scene::IlluminationParams;
 use super::sensor::{SensorParams, TimestampMode};
 use super::simulation::{Interpolation, Simulation};
 use crate::error::{Error, Result};
@@ -128,8 +128,7 @@ impl Sampling {
     /// otherwise the linear at 0.25 px and 200 µs. The step's defaults follow the interpolation, also where it is
     /// given.
     pub fn resolve(&self, light: &IlluminationParams) -> ResolvedSampling {
-        let steady = light.mode == LightMode::Continuous && light.flicker_hz <= 0.0;
-        let interpolation = self.interpolation.unwrap_or(if steady {
+        let interpolation = self.interpolation.unwrap_or(if light.steady() {
             Interpolation::Cubic
         } else {
             Interpolation::Linear
@@ -382,6 +381,7 @@ fn apply_override(p: &mut SensorParams, key: &str, value: &ParamValue) -> Result
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::sim::scene::LightMode;
 
     fn parse(text: &str, origin: &str) -> Result<Scenario> {
         toml::from_str(text).map_err(|e| Error::parameter(origin, e.to_string()))

@@ -81,6 +81,13 @@ impl Default for IlluminationParams {
 }
 
 impl IlluminationParams {
+    /// Whether the light is continuous and without flicker: steady apart from the particles,
+    /// as [`crate::sim::simulation::Interpolation::Cubic`] needs (it models no slopes of the
+    /// light itself).
+    pub fn steady(&self) -> bool {
+        self.mode == LightMode::Continuous && self.flicker_hz <= 0.0
+    }
+
     /// Check every value, naming the offending key.
     pub fn validate(&self) -> Result<()> {
         let bad = |k: &str, v: f64, allowed: &str| {

@@ -11,7 +11,7 @@
 
 use super::flow::Flow;
 use super::particles::{Particle, ParticleCloud, SeedingParams};
-use super::scene::{IlluminationParams, LightMode, ParticleRenderer, Spot, SpotMotion};
+use super::scene::{IlluminationParams, ParticleRenderer, Spot, SpotMotion};
 use super::sensor::{
     NoiseStream, ReadoutReport, SensorBand, SensorParams, SimEvent, StreamingReadout,
 };
@@ -210,15 +210,12 @@ impl Simulation {
                 format!("{} must be in [0.5, 1000]", self.max_step_us),
             ));
         }
-        if self.interpolation == Interpolation::Cubic {
-            let light = &self.illumination;
-            if light.mode != LightMode::Continuous || light.flicker_hz > 0.0 {
-                return Err(Error::parameter(
-                    "sampling.interpolation",
-                    "\"cubic\" needs continuous light without flicker (the slopes of pulses \
-                     and flicker are not modelled); use \"linear\"",
-                ));
-            }
+        if self.interpolation == Interpolation::Cubic && !self.illumination.steady() {
+            return Err(Error::parameter(
+                "sampling.interpolation",
+                "\"cubic\" needs continuous light without flicker (the slopes of pulses and \
+                 flicker are not modelled); use \"linear\"",
+            ));
         }
         let speed = self.start_speed();
         if speed.is_nan() || speed > MAX_SPEED {
