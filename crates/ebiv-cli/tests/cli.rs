@@ -420,7 +420,7 @@ fn init_writes_a_config_that_process_reads_and_checks() {
         stderr(&o)
     );
     let o = ebiv(&["process", "x.raw", "--peak-smoothing=-1"]);
-    assert!(stderr(&o).contains("peak_smoothing_px"), "{}", stderr(&o));
+    assert!(stderr(&o).contains("peak-smoothing"), "{}", stderr(&o));
 }
 
 /// A reader that closes the pipe early (`ebiv … | head -1`) ends the program quietly by

@@ -102,7 +102,7 @@ impl Calibration {
     pub fn validate(&self) -> crate::Result<()> {
         if !(self.mm_per_px.is_finite() && self.mm_per_px > 0.0) {
             return Err(crate::Error::parameter(
-                "mm_per_px",
+                "mm-per-px",
                 format!("must be a positive number, got {}", self.mm_per_px),
             ));
         }

@@ -24,6 +24,7 @@ pub mod io;
 pub mod piv;
 pub mod process;
 pub mod render;
+pub mod settings;
 pub mod sim;
 mod simd;
 pub mod stats;

@@ -60,11 +60,11 @@ impl ValidationParams {
                 ))
             }
         };
-        positive("median_threshold", self.median_threshold)?;
-        non_negative("median_epsilon", self.median_epsilon)?;
-        non_negative("min_peak_ratio", self.min_peak_ratio)?;
+        positive("median-threshold", self.median_threshold)?;
+        non_negative("median-epsilon", self.median_epsilon)?;
+        non_negative("min-peak-ratio", self.min_peak_ratio)?;
         if let Some(m) = self.max_velocity {
-            positive("max_velocity", m)?;
+            positive("max-velocity", m)?;
         }
         Ok(())
     }

@@ -265,22 +265,22 @@ fn parameters_deserialize_and_validate() {
     assert!(toml::from_str::<MotionParams>("slab = 3").is_err());
     let bad = |p: MotionParams| p.validate().unwrap_err().to_string();
     let d = MotionParams::default;
-    assert!(bad(MotionParams { slab_us: 0, ..d() }).contains("slab_us"));
+    assert!(bad(MotionParams { slab_us: 0, ..d() }).contains("`slab`"));
     assert!(bad(MotionParams {
         coarse_step: f64::NAN,
         ..d()
     })
-    .contains("coarse_step"));
+    .contains("coarse-step"));
     assert!(bad(MotionParams {
         final_step: 0.5,
         ..d()
     })
-    .contains("final_step"));
+    .contains("final-step"));
     assert!(bad(MotionParams {
         search_range: Some(-1.0),
         ..d()
     })
-    .contains("search_range"));
+    .contains("search-range"));
     let s = Splat::Gaussian { sigma: 9.0 };
     assert!(bad(MotionParams { splat: s, ..d() }).contains("sigma"));
     assert!(ContrastMaximization::new(MotionParams { slab_us: -5, ..d() }).is_err());

@@ -89,7 +89,7 @@ fn uniform_sub_pixel_sweep_meets_the_bias_and_rms_targets() {
         assert!(rms <= 0.02, "shift {d}: rms {rms}");
         assert_eq!(valid, 1.0, "shift {d}");
         let single = PivParams {
-            final_iterations: 0,
+            last_pass_repeats: 0,
             ..params(&[32])
         };
         let one = piv_pair(&a, &b, &single).unwrap();
@@ -207,7 +207,7 @@ fn no_peak_locking_beyond_sampling_noise() {
     let (a, b) = particle_image_pair(&small, truth, 6);
     let single = PivParams {
         passes: vec![GridSpec::square(32, 8)],
-        final_iterations: 0,
+        last_pass_repeats: 0,
         ..Default::default()
     };
     let out = piv_pair(&a, &b, &single).unwrap();
@@ -256,7 +256,7 @@ fn vortex_is_resolved_and_multi_pass_beats_single_pass() {
         &a,
         &b,
         &PivParams {
-            final_iterations: 0,
+            last_pass_repeats: 0,
             ..params(&[32])
         },
     )

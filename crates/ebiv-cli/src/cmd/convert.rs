@@ -62,7 +62,7 @@ pub fn run(args: &ConvertArgs) -> Result<(), ebiv::Error> {
     let origin = if args.absolute_time {
         0
     } else {
-        crate::cmd::first_event_time(&args.input, &options)?.unwrap_or(0)
+        ebiv::process::first_event_time(&args.input, &options)?.unwrap_or(0)
     };
     let (start, end) = args.time_range.unwrap_or((None, None));
     let filter = EventFilter {

@@ -2,7 +2,7 @@
 //! Lamb–Oseen vortex in a uniform stream through the gen4 sensor model, write and re-read
 //! the recording, measure its velocity field with both estimators, compare with the truth.
 
-use super::process_run::{describe_passes, series_histograms};
+use crate::cmd::process::{describe_passes, series_histograms};
 use crate::progress::count_bar;
 use clap::Args;
 use ebiv::assess::{field_errors, ErrorStats};
@@ -99,7 +99,7 @@ pub fn run(args: &DemoArgs) -> Result<(), ebiv::Error> {
     println!(
         "measuring {} fields ({}), positive events, T = 10 ms:",
         FIELD_TIMES.len(),
-        describe_passes(&params)
+        describe_passes(&params.passes)
     );
     let corrsum = SumOfCorrelation::new(CorrSumParams::default())?;
     let motion = ContrastMaximization::new(MotionParams::default())?;

@@ -5,10 +5,12 @@ use crate::input::InputArgs;
 use crate::progress::count_bar;
 use clap::Args;
 use ebiv::frame::events::{frame_starts, stream_frames, FrameKind, FrameSpec};
-use ebiv::frame::pulse::{detect_pulses, pulse_frame_starts, PulseTiming};
+use ebiv::frame::pulse::{pulse_frame_starts, PulseTiming};
+use ebiv::frame::scan_pulse_timing;
 use ebiv::frame::{despeckle, save, splat, Scale};
+use ebiv::process::coverage;
 use ebiv::units::format_us;
-use ebiv::{EventBuffer, Geometry, PolaritySelection};
+use ebiv::PolaritySelection;
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
@@ -92,10 +94,6 @@ fn parse_scale(s: &str) -> Result<Scale, String> {
 const DEFAULT_EXPOSURE_US: i64 = 1000;
 /// Most frames one run writes.
 const MAX_FRAMES: i64 = 1_000_000;
-/// Stretch of the recording the pulse detection looks at, µs.
-const DETECT_SPAN_US: i64 = 2_000_000;
-/// Most events the pulse detection looks at.
-const DETECT_MAX_EVENTS: usize = 2_000_000;
 
 pub fn run(args: &FramesArgs) -> Result<(), ebiv::Error> {
     let mut spec = FrameSpec {
@@ -114,8 +112,19 @@ pub fn run(args: &FramesArgs) -> Result<(), ebiv::Error> {
         }
     }
     let options = args.input.read_options()?;
-    let extent = Extent::of(args, &options)?;
-    let (start, end, geometry) = (extent.start, extent.end, extent.geometry);
+    let extent = coverage(
+        &args.file,
+        &options,
+        args.time.unwrap_or((None, None)),
+        args.absolute_time,
+    )?;
+    if extent.geometry_from_events {
+        eprintln!(
+            "note: the file does not state the sensor size; frames are {} px, the largest coordinates seen (set it with --geometry)",
+            extent.geometry
+        );
+    }
+    let (start, end, geometry) = (extent.start_us, extent.end_us, extent.geometry);
 
     let starts = if args.pulsed {
         let timing = find_pulses(args, &options, start, end)?;
@@ -216,7 +225,7 @@ pub fn run(args: &FramesArgs) -> Result<(), ebiv::Error> {
         args.kind.name(),
         args.output.display(),
         format_us(spec.exposure_us),
-        format_us(start - extent.first_event),
+        format_us(start - extent.first_event_us),
         csv_path.display()
     );
     if args.despeckle {
@@ -256,59 +265,6 @@ fn write_replacing(path: &Path, bytes: &[u8]) -> Result<(), ebiv::Error> {
         })
 }
 
-/// The camera-time interval `[start, end)` to cover and the sensor size.
-struct Extent {
-    first_event: i64,
-    start: i64,
-    end: i64,
-    geometry: Geometry,
-}
-
-impl Extent {
-    /// From the options, the file's header, and where needed one pass over the file.
-    fn of(args: &FramesArgs, options: &ebiv::io::ReadOptions) -> Result<Extent, ebiv::Error> {
-        let first_event = super::first_event_time(&args.file, options)?
-            .ok_or_else(|| ebiv::Error::parameter("file", "the recording holds no events"))?;
-        let origin = if args.absolute_time { 0 } else { first_event };
-        let (from, to) = args.time.unwrap_or((None, None));
-        let start = from.map_or(first_event, |s| s + origin);
-        let mut end = to.map(|e| e + origin);
-        let mut geometry = ebiv::io::open(&args.file, options)?.metadata().geometry;
-        if end.is_none() || geometry.is_none() {
-            let (mut t_max, mut x_max, mut y_max) = (i64::MIN, 0u16, 0u16);
-            super::stream_file(&args.file, options, |_, batch: &EventBuffer| {
-                t_max = batch.t.iter().copied().fold(t_max, i64::max);
-                x_max = batch.x.iter().copied().fold(x_max, u16::max);
-                y_max = batch.y.iter().copied().fold(y_max, u16::max);
-                Ok(true)
-            })?;
-            end = end.or(Some(t_max.saturating_add(1)));
-            if geometry.is_none() {
-                let g = Geometry::new(x_max as u32 + 1, y_max as u32 + 1);
-                eprintln!(
-                    "note: the file does not state the sensor size; frames are {g} px, the largest coordinates seen (set it with --geometry)"
-                );
-                geometry = Some(g);
-            }
-        }
-        let end = end.unwrap_or(start);
-        if end <= start {
-            return Err(ebiv::Error::parameter(
-                "time",
-                format!(
-                    "nothing to do: the interval ends ({end} µs) before it starts ({start} µs)"
-                ),
-            ));
-        }
-        Ok(Extent {
-            first_event,
-            start,
-            end,
-            geometry: geometry.expect("set above"),
-        })
-    }
-}
-
 /// Detect the pulse timing from up to the first two seconds of `[start, end)` and say what
 /// was found.
 fn find_pulses(
@@ -317,30 +273,14 @@ fn find_pulses(
     start: i64,
     end: i64,
 ) -> Result<PulseTiming, ebiv::Error> {
-    let until = end.min(start.saturating_add(DETECT_SPAN_US));
     let mut reader = ebiv::io::open(&args.file, options)?;
-    reader.skip_to(start)?;
-    let mut times = Vec::new();
-    let mut triggers = Vec::new();
-    let mut batch = EventBuffer::new();
-    'read: while reader.read_batch(&mut batch)? {
-        triggers.extend(
-            batch
-                .triggers
-                .iter()
-                .filter(|tr| tr.t >= start && tr.t < until),
-        );
-        for i in 0..batch.len() {
-            let t = batch.t[i];
-            if t >= until || times.len() >= DETECT_MAX_EVENTS {
-                break 'read;
-            }
-            if t >= start && args.polarity.accepts(batch.p[i]) {
-                times.push(t);
-            }
-        }
-    }
-    let timing = detect_pulses(&times, &triggers, args.pulse_hz)?;
+    let timing = scan_pulse_timing(
+        &mut reader,
+        args.polarity,
+        Some(start),
+        Some(end),
+        args.pulse_hz,
+    )?;
     let source = match timing.source {
         ebiv::frame::PulseSource::Triggers => "trigger input",
         ebiv::frame::PulseSource::EventHistogram => "event rate",

@@ -1,16 +1,11 @@
 //! One module per subcommand.
 
 pub mod bench;
-pub mod bench_piv;
-pub mod bench_process;
 pub mod convert;
 pub mod demo;
 pub mod frames;
 pub mod info;
 pub mod process;
-pub mod process_config;
-pub mod process_piv;
-pub mod process_run;
 pub mod render;
 pub mod simulate;
 
@@ -42,18 +37,6 @@ pub fn stream_file(
     }
     bar.finish_and_clear();
     Ok(reader)
-}
-
-/// Time stamp of the first event of `path`, decoding only its first batch.
-pub fn first_event_time(path: &Path, options: &ReadOptions) -> Result<Option<i64>, ebiv::Error> {
-    let mut reader = ebiv::io::open(path, options)?;
-    let mut batch = EventBuffer::new();
-    while reader.read_batch(&mut batch)? {
-        if let Some(&t) = batch.t.first() {
-            return Ok(Some(t));
-        }
-    }
-    Ok(None)
 }
 
 /// One line on standard error for each kind of dropped or skipped data.

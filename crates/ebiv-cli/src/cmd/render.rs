@@ -51,7 +51,7 @@ pub fn run(args: &RenderArgs) -> Result<(), ebiv::Error> {
     let origin = if args.absolute_time {
         0
     } else {
-        super::first_event_time(&args.file, &options)?
+        ebiv::process::first_event_time(&args.file, &options)?
             .ok_or_else(|| ebiv::Error::parameter("file", "the recording holds no events"))?
     };
     let whole_file = args.rate && args.t0.is_none();

@@ -151,7 +151,7 @@ impl CorrSumParams {
         let (t, tau, n) = (self.slab_us, self.tau_us, self.slices);
         if t <= 0 || t > MAX_SLAB_US {
             return Err(Error::parameter(
-                "slab_us",
+                "slab",
                 format!("must be between 1 µs and {MAX_SLAB_US} µs, got {t} µs"),
             ));
         }
@@ -169,13 +169,13 @@ impl CorrSumParams {
         }
         if tau <= 0 {
             return Err(Error::parameter(
-                "tau_us",
+                "tau",
                 format!("the delay must be positive, got {tau} µs"),
             ));
         }
         if tau > t {
             return Err(Error::parameter(
-                "tau_us",
+                "tau",
                 format!(
                     "the delay ({tau} µs) must not exceed the slab ({t} µs); the paper uses τ = 3 ms with T = 10 ms"
                 ),
@@ -183,7 +183,7 @@ impl CorrSumParams {
         }
         if tau * (n as i64) < t {
             return Err(Error::parameter(
-                "tau_us",
+                "tau",
                 format!(
                     "the delay ({tau} µs) is shorter than one slice ({} µs): paired slices would share events and correlate with themselves; use a longer delay or fewer slices",
                     t as f64 / n as f64
@@ -192,7 +192,7 @@ impl CorrSumParams {
         }
         if !(0.0..=MAX_PEAK_SMOOTHING_PX).contains(&self.peak_smoothing_px) {
             return Err(Error::parameter(
-                "peak_smoothing_px",
+                "peak-smoothing",
                 format!(
                     "must be between 0 (off) and {MAX_PEAK_SMOOTHING_PX} px, got {}",
                     self.peak_smoothing_px
@@ -200,10 +200,7 @@ impl CorrSumParams {
             ));
         }
         if self.search_radius_px == Some(0) {
-            return Err(Error::parameter(
-                "search_radius_px",
-                "must be at least 1 px",
-            ));
+            return Err(Error::parameter("search-radius", "must be at least 1 px"));
         }
         Ok(())
     }

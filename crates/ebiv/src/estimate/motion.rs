@@ -175,12 +175,12 @@ impl MotionParams {
     pub fn validate(&self) -> Result<()> {
         if !(1..=60_000_000).contains(&self.slab_us) {
             return Err(Error::parameter(
-                "slab_us",
+                "slab",
                 format!("must be 1 µs … 60 s, got {} µs", self.slab_us),
             ));
         }
         if !(self.coarse_step.is_finite() && self.coarse_step > 0.0) {
-            return Err(Error::parameter("coarse_step", "must be a positive number"));
+            return Err(Error::parameter("coarse-step", "must be a positive number"));
         }
         if !(self.final_step.is_finite()
             && self.final_step > 0.0
@@ -188,7 +188,7 @@ impl MotionParams {
             && self.coarse_step / self.final_step <= 1024.0)
         {
             return Err(Error::parameter(
-                "final_step",
+                "final-step",
                 format!(
                     "must be positive, at most coarse_step ({}) and at least 1/1024 of it",
                     self.coarse_step
@@ -198,7 +198,7 @@ impl MotionParams {
         if let Some(r) = self.search_range {
             if !(r.is_finite() && r > 0.0 && r / self.coarse_step <= 1024.0) {
                 return Err(Error::parameter(
-                    "search_range",
+                    "search-range",
                     "must be positive and at most 1024 coarse steps",
                 ));
             }

@@ -15,6 +15,28 @@ use std::path::{Path, PathBuf};
 /// The image formats [`load`] decodes, for messages.
 const READABLE: &str = "PNG, TIFF, BMP or JPEG";
 
+/// A [`crate::grid::Mask`] from an image file of the sensor's size: its non-zero pixels are
+/// masked. The error names the file when its size is not `geometry`'s.
+pub fn load_mask(path: &Path, geometry: crate::event::Geometry) -> Result<crate::grid::Mask> {
+    let image = load(path)?;
+    if image.width != geometry.width || image.height != geometry.height {
+        return Err(Error::parameter(
+            "mask",
+            format!(
+                "{} is {}×{} px but the sensor is {geometry}",
+                path.display(),
+                image.width,
+                image.height
+            ),
+        ));
+    }
+    Ok(crate::grid::Mask {
+        width: image.width,
+        height: image.height,
+        masked: image.data.iter().map(|&v| v != 0.0).collect(),
+    })
+}
+
 /// Read the image file at `path` as a grey [`Frame`], in the file's own scale: 0..255 for
 /// 8-bit images, 0..65535 for 16-bit ones, 0..1 for floating-point TIFF. Colour is reduced
 /// to ITU-R BT.601 luma, alpha is ignored. The format is recognised by content.

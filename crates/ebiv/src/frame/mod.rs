@@ -63,10 +63,12 @@ impl Frame {
 pub mod events;
 pub mod file;
 pub mod pulse;
+pub mod pulse_scan;
 
 pub use events::{
     build_frame, despeckle, frame_starts, frames_from_reader, splat, stream_frames, FrameKind,
     FrameRecord, FrameSpec,
 };
-pub use file::{expand_image_list, load, save, Scale};
+pub use file::{expand_image_list, load, load_mask, save, Scale};
 pub use pulse::{detect_pulses, folded_histogram, pulse_frame_starts, PulseSource, PulseTiming};
+pub use pulse_scan::scan_pulse_timing;

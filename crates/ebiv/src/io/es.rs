@@ -12,10 +12,10 @@
 //!
 //! Generic, display and colour streams hold no change-detection events and are refused.
 //!
-//! **y is returned as stored**: Event Stream puts the y origin at the bottom of the sensor,
-//! so image coordinates are `height − 1 − y`. ebiv keeps the stored value (faery's
-//! `y_original`, the value the canonical digests of §16 hash) and says so in the metadata.
-//! Events outside the header's width × height are dropped and counted.
+//! **Rows are flipped to image coordinates**: Event Stream puts the y origin at the bottom of
+//! the sensor, so ebiv returns `y = height − 1 − y_stored` (origin top-left, as every other
+//! reader and as faery reports), and says so in the metadata. Events outside the header's
+//! width × height are dropped and counted.
 
 use super::bytestream::{WordDecoder, WordStreamReader};
 use super::prophesee_header::read_up_to;
@@ -95,7 +95,7 @@ pub(crate) fn open(
         options.geometry
     };
     metadata.notes.push(
-        "Event Stream stores y with the origin at the bottom; y is returned as stored (image row = height − 1 − y)".into(),
+        "Event Stream stores y with the origin at the bottom; ebiv flips it to image rows (y = height − 1 − y_stored)".into(),
     );
     if kind == TYPE_ATIS {
         metadata.notes.push(
@@ -159,7 +159,8 @@ impl EsDecoder {
             report.out_of_range += 1;
             return;
         }
-        out.push(self.t, x, y, p);
+        // Stored rows count from the bottom; image rows from the top.
+        out.push(self.t, x, (self.height - 1 - y as u32) as u16, p);
     }
 }
 
@@ -273,11 +274,11 @@ mod tests {
         let e = &rec.events;
         assert_eq!(e.t, vec![0, 259, 386]);
         assert_eq!(e.x, vec![0, 319, 7]);
-        assert_eq!(e.y, vec![239, 0, 8]);
+        assert_eq!(e.y, vec![0, 239, 231]);
         assert_eq!(e.p, vec![1, 0, 1]);
         assert_eq!(rec.report.out_of_range, 1);
         assert_eq!(rec.metadata.geometry, Some(Geometry::new(320, 240)));
-        assert!(rec.metadata.notes.iter().any(|n| n.contains("bottom")));
+        assert!(rec.metadata.notes.iter().any(|n| n.contains("flips")));
     }
 
     #[test]

@@ -10,7 +10,7 @@
 //!    of it in opposite directions ([`deform`], central differences), correlates the deformed
 //!    windows ([`correlate`]) and adds the residual displacement to the predictor;
 //! 4. the last pass may be repeated until the field changes by less than
-//!    [`PivParams::convergence_px`] (PIVlab's iterative last pass), and is validated; replacing
+//!    [`PivParams::repeat_tolerance`] (PIVlab's iterative last pass), and is validated; replacing
 //!    its outliers is a separate, optional step, as for the event estimators.
 //!
 //! Several frame pairs may be evaluated together: their correlation planes are summed window
@@ -25,6 +25,7 @@
 pub mod correlate;
 pub mod deform;
 pub mod events;
+pub mod images;
 pub mod synthetic;
 
 pub use correlate::{CorrelationKind, Correlator};
@@ -36,6 +37,7 @@ use crate::estimate::peak::{find_peak, SubPixelFit};
 use crate::field::{Status, VectorField};
 use crate::frame::Frame;
 use crate::grid::{Grid, GridSpec, Mask, Window};
+use crate::process::{run_passes, MultiPass, PassEvaluator, PassReport};
 use crate::validate::{self, ValidationParams, ValidationSummary};
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
@@ -92,10 +94,11 @@ pub struct PivParams {
     /// Gaussian smoothing of the predictor between passes, in grid nodes (0 = off).
     pub predictor_smoothing: f64,
     /// Repetitions of the last pass at most, each with the previous result as predictor.
-    pub final_iterations: u32,
-    /// The repetitions stop once the RMS change of the field is below this, px (PIVlab:
+    pub last_pass_repeats: u32,
+    /// The repetitions stop once the mean change of the vectors valid in two successive ones
+    /// is below this, px ([`crate::process::multipass`]; PIVlab stops at an RMS change of
     /// 0.025 px).
-    pub convergence_px: f64,
+    pub repeat_tolerance: f64,
     /// Pixels to leave out: they count as the window mean; windows whose centre is masked
     /// are not evaluated.
     pub mask: Option<Mask>,
@@ -116,8 +119,8 @@ impl Default for PivParams {
             validation: ValidationParams::default(),
             replace_final: false,
             predictor_smoothing: 0.5,
-            final_iterations: 2,
-            convergence_px: 0.01,
+            last_pass_repeats: 2,
+            repeat_tolerance: 0.01,
             mask: None,
         }
     }
@@ -164,14 +167,14 @@ impl PivParams {
         self.validation.check()?;
         if !(self.predictor_smoothing.is_finite() && self.predictor_smoothing >= 0.0) {
             return Err(Error::parameter(
-                "predictor_smoothing",
+                "predictor-smoothing",
                 format!("must be zero or positive, got {}", self.predictor_smoothing),
             ));
         }
-        if !(self.convergence_px.is_finite() && self.convergence_px >= 0.0) {
+        if !(self.repeat_tolerance.is_finite() && self.repeat_tolerance >= 0.0) {
             return Err(Error::parameter(
-                "convergence_px",
-                format!("must be zero or positive, got {}", self.convergence_px),
+                "repeat-tolerance",
+                format!("must be zero or positive, got {}", self.repeat_tolerance),
             ));
         }
         Ok(())
@@ -212,8 +215,8 @@ pub fn attributes(p: &PivParams) -> Vec<(String, String)> {
         (
             "final_pass_iterations".to_string(),
             format!(
-                "up to {} repetitions, until the RMS change < {} px",
-                p.final_iterations, p.convergence_px
+                "up to {} repetitions, until the mean change < {} px",
+                p.last_pass_repeats, p.repeat_tolerance
             ),
         ),
         (
@@ -237,21 +240,6 @@ pub fn attributes(p: &PivParams) -> Vec<(String, String)> {
         ),
         ("status_flags".to_string(), Status::legend()),
     ]
-}
-
-/// What one pass did.
-#[derive(Debug, Clone, PartialEq)]
-pub struct PassReport {
-    /// Window width and height, px.
-    pub window: [u32; 2],
-    /// Vectors on the pass's grid.
-    pub vectors: usize,
-    /// Evaluations of the pass (1 + repetitions of the last pass).
-    pub iterations: u32,
-    /// RMS change of the field in the last repetition, px (NaN without repetitions).
-    pub last_change_px: f64,
-    /// Valid share after validation.
-    pub valid_share: f64,
 }
 
 /// The result of a PIV evaluation.
@@ -321,7 +309,7 @@ pub fn piv_ensemble(pairs: &[(&Frame, &Frame)], params: &PivParams) -> Result<Pi
         .iter()
         .map(|p| Grid::new(p, first.geometry()))
         .collect::<Result<_>>()?;
-    let needs_resampling = grids.len() > 1 || params.final_iterations > 0;
+    let needs_resampling = grids.len() > 1 || params.last_pass_repeats > 0;
     let resamplers: Vec<(Resampler, Resampler)> = if needs_resampling {
         pairs
             .iter()
@@ -336,63 +324,45 @@ pub fn piv_ensemble(pairs: &[(&Frame, &Frame)], params: &PivParams) -> Result<Pi
         Vec::new()
     };
 
-    let mut predictor: Option<VectorField> = None;
-    let mut reports = Vec::with_capacity(grids.len());
-    for (k, grid) in grids.iter().enumerate() {
-        let is_last = k + 1 == grids.len();
-        let evaluations = if is_last {
-            params.final_iterations.min(MAX_FINAL_ITERATIONS) + 1
-        } else {
-            1
-        };
-        let mut iterations = 0;
-        let mut change = f64::NAN;
-        let mut field;
-        let mut validation;
-        let mut previous: Option<VectorField> = None;
-        loop {
-            iterations += 1;
-            field = evaluate_pass(pairs, &resamplers, grid, params, predictor.as_ref());
-            validation = validate::validate(&mut field, &params.validation);
-            let repeat = iterations < evaluations;
-            // Successive raw results of the repeated pass (not the smoothed predictor, whose
-            // smoothing bias would never fall below the tolerance).
-            if let Some(p) = &previous {
-                change = rms_change(p, &field);
-            }
-            let converged = iterations > 1 && change < params.convergence_px;
-            if !repeat || converged {
-                break;
-            }
-            let mut next = field.clone();
-            prepare_predictor(&mut next, params);
-            predictor = Some(next);
-            previous = Some(field);
-        }
-        reports.push(PassReport {
-            window: grid.window,
-            vectors: grid.len(),
-            iterations,
-            last_change_px: if iterations > 1 { change } else { f64::NAN },
-            valid_share: field.valid_share(),
-        });
-        if is_last {
-            let replaced = if params.replace_final {
-                validate::replace_invalid(&mut field, &Default::default())
-            } else {
-                0
-            };
-            return Ok(PivOutput {
-                field,
-                validation,
-                replaced,
-                passes: reports,
-            });
-        }
-        prepare_predictor(&mut field, params);
-        predictor = Some(field);
+    let outcome = run_passes(
+        &FramePasses {
+            pairs,
+            resamplers: &resamplers,
+            params,
+        },
+        &grids,
+        &MultiPass {
+            validation: &params.validation,
+            last_pass_repeats: params.last_pass_repeats.min(MAX_FINAL_ITERATIONS),
+            repeat_single_pass: true,
+            repeat_tolerance: params.repeat_tolerance,
+            secondary_peaks: false,
+            replace_final: params.replace_final,
+        },
+    );
+    Ok(PivOutput {
+        field: outcome.field,
+        validation: outcome.validation,
+        replaced: outcome.replaced,
+        passes: outcome.passes,
+    })
+}
+
+/// The passes of PIV on one or more frame pairs.
+struct FramePasses<'a> {
+    pairs: &'a [(&'a Frame, &'a Frame)],
+    resamplers: &'a [(Resampler, Resampler)],
+    params: &'a PivParams,
+}
+
+impl PassEvaluator for FramePasses<'_> {
+    fn evaluate(&self, grid: &Grid, predictor: Option<&VectorField>) -> VectorField {
+        evaluate_pass(self.pairs, self.resamplers, grid, self.params, predictor)
     }
-    unreachable!("the last pass returns")
+
+    fn prepare_predictor(&self, field: &mut VectorField) {
+        prepare_predictor(field, self.params);
+    }
 }
 
 /// Most repetitions of the last pass.
@@ -451,23 +421,6 @@ fn fill_everywhere(field: &mut VectorField) {
             field.u[i] = u;
             field.v[i] = v;
         }
-    }
-}
-
-/// RMS difference of the vectors both fields have, px.
-fn rms_change(a: &VectorField, b: &VectorField) -> f64 {
-    let (mut sum, mut n) = (0.0f64, 0usize);
-    for i in 0..a.len().min(b.len()) {
-        let (du, dv) = ((a.u[i] - b.u[i]) as f64, (a.v[i] - b.v[i]) as f64);
-        if du.is_finite() && dv.is_finite() {
-            sum += du * du + dv * dv;
-            n += 1;
-        }
-    }
-    if n == 0 {
-        f64::NAN
-    } else {
-        (sum / n as f64).sqrt()
     }
 }
 

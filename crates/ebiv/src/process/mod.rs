@@ -8,16 +8,20 @@
 //! centres its search (motion compensation) there. The last pass is validated; replacing its
 //! outliers is a separate, optional step.
 
+pub mod multipass;
+mod plan;
 mod predictor;
 mod secondary;
 mod stream;
 mod times;
 
+pub use multipass::{run_passes, MultiPass, PassEvaluator, PassReport, PassesOutcome};
+pub use plan::{coverage, first_event_time, plan_fields, Coverage, PlannedFields, MAX_FIELDS};
 pub use stream::{
     process_recording, scan_extent, BatchSource, FieldDone, MemorySource, RecordingExtent,
     RunSummary, SlidingEvents,
 };
-pub use times::TimeSteps;
+pub use times::{FieldTimes, TimeSteps};
 
 use crate::error::Result;
 use crate::estimate::Estimator;
@@ -27,6 +31,33 @@ use crate::grid::{Grid, GridSpec, Mask};
 use crate::validate::{self, ValidationParams, ValidationSummary};
 use crate::volume::Slab;
 use rayon::prelude::*;
+
+/// The ways of measuring a velocity field.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Method {
+    /// Sum of correlation of two event sub-volumes (Willert & Klinner 2022, §2.3).
+    CorrSum,
+    /// Motion compensation: the velocity that sharpens the warped event image most
+    /// (Willert & Klinner 2022, §2.4; Gallego et al. 2018).
+    Motion,
+    /// Cross-correlation PIV of image pairs or of frames rebuilt from events.
+    Piv,
+    /// PIV of one frame per light pulse (pulsed EBIV, Willert 2023).
+    Pulsed,
+}
+
+impl Method {
+    /// Parse `corrsum`, `motion`, `piv` or `pulsed` (and their long names).
+    pub fn parse(text: &str) -> Option<Method> {
+        match text {
+            "corrsum" | "sum-of-correlation" | "correlation" => Some(Method::CorrSum),
+            "motion" | "motion-compensation" | "cmax" => Some(Method::Motion),
+            "piv" => Some(Method::Piv),
+            "pulsed" | "pulsed-ebiv" => Some(Method::Pulsed),
+            _ => None,
+        }
+    }
+}
 
 /// Everything about a run besides the estimator: passes, events, validation.
 #[derive(Debug, Clone)]
@@ -129,10 +160,10 @@ pub struct FieldResult {
     pub replaced: usize,
 }
 
-/// Evaluate every pass of `params` on the events of `slab` around time `t0_us`; with more
-/// than one pass, the last one is repeated (up to `last_pass_repeats` times) with the
-/// previous result as predictor until the mean change of its vectors falls below
-/// `repeat_tolerance`.
+/// Evaluate every pass of `params` on the events of `slab` around time `t0_us` with the
+/// one multi-pass loop ([`multipass::run_passes`]); with more than one pass, the last one is
+/// repeated (up to `last_pass_repeats` times) with the previous result as predictor until the
+/// mean change of its vectors falls below `repeat_tolerance`.
 pub fn process_slab<E: Estimator>(
     estimator: &E,
     slab: &Slab,
@@ -140,68 +171,73 @@ pub fn process_slab<E: Estimator>(
     grids: &[Grid],
     params: &ProcessParams,
 ) -> FieldResult {
-    let last_grid = grids.last().expect("grids is not empty");
-    let repeats = if grids.len() > 1 {
-        params.last_pass_repeats as usize
-    } else {
-        0
+    let passes = EventPasses {
+        estimator,
+        slab,
+        t0_us,
+        params,
     };
-    let mut predictor: Option<VectorField> = None;
-    let mut previous: Option<VectorField> = None;
-    let mut result = None;
-    for k in 0..grids.len() + repeats {
-        let grid = grids.get(k).unwrap_or(last_grid);
-        let mut field = evaluate_pass(estimator, slab, t0_us, grid, params, predictor.as_ref());
-        let mut validation = validate::validate(&mut field, &params.validation);
-        let converged = previous
-            .as_ref()
-            .and_then(|p| mean_change(p, &field))
-            .is_some_and(|change| change < params.repeat_tolerance);
-        if k + 1 < grids.len() + repeats && !converged {
-            if k + 1 >= grids.len() {
-                previous = Some(field.clone());
-            }
-            validate::replace_invalid(&mut field, &Default::default());
-            predictor = Some(field);
-            continue;
-        }
-        let reevaluate = params.secondary_peaks && estimator.finds_secondary_peaks();
-        if let Some(predictor) = predictor.as_ref().filter(|_| reevaluate) {
-            let n = secondary::reevaluate_outliers(
-                estimator, slab, t0_us, grid, params, predictor, &mut field,
-            );
-            validation.median_test -= n;
-            validation.valid_after += n;
-            validation.secondary_peaks = n;
-        }
-        let replaced = if params.replace_final {
-            validate::replace_invalid(&mut field, &Default::default())
-        } else {
-            0
-        };
-        result = Some(FieldResult {
-            field,
-            validation,
-            replaced,
-        });
-        break;
+    let outcome = multipass::run_passes(
+        &passes,
+        grids,
+        &MultiPass {
+            validation: &params.validation,
+            last_pass_repeats: params.last_pass_repeats,
+            repeat_single_pass: false,
+            repeat_tolerance: params.repeat_tolerance,
+            secondary_peaks: params.secondary_peaks && estimator.finds_secondary_peaks(),
+            replace_final: params.replace_final,
+        },
+    );
+    FieldResult {
+        field: outcome.field,
+        validation: outcome.validation,
+        replaced: outcome.replaced,
     }
-    result.expect("at least one pass ran")
 }
 
-/// Mean |Δv| (px/ms) over the vectors valid in both fields of the same grid, `None` if none.
-fn mean_change(a: &VectorField, b: &VectorField) -> Option<f64> {
-    let (mut sum, mut n) = (0.0f64, 0usize);
-    for i in 0..a.len().min(b.len()) {
-        if a.status[i].is_valid() && b.status[i].is_valid() {
-            let d = ((a.u[i] - b.u[i]) as f64).hypot((a.v[i] - b.v[i]) as f64);
-            if d.is_finite() {
-                sum += d;
-                n += 1;
-            }
-        }
+/// The passes of an event estimator on one slab.
+struct EventPasses<'a, E> {
+    estimator: &'a E,
+    slab: &'a Slab,
+    t0_us: i64,
+    params: &'a ProcessParams,
+}
+
+impl<E: Estimator> PassEvaluator for EventPasses<'_, E> {
+    fn evaluate(&self, grid: &Grid, predictor: Option<&VectorField>) -> VectorField {
+        evaluate_pass(
+            self.estimator,
+            self.slab,
+            self.t0_us,
+            grid,
+            self.params,
+            predictor,
+        )
     }
-    (n > 0).then(|| sum / n as f64)
+
+    /// Gaps filled by interpolation; the smoothing is the predictor's local linear fit
+    /// ([`ProcessParams::predictor_smoothing`]), applied where it is sampled.
+    fn prepare_predictor(&self, field: &mut VectorField) {
+        validate::replace_invalid(field, &Default::default());
+    }
+
+    fn reevaluate_outliers(
+        &self,
+        grid: &Grid,
+        predictor: &VectorField,
+        field: &mut VectorField,
+    ) -> usize {
+        secondary::reevaluate_outliers(
+            self.estimator,
+            self.slab,
+            self.t0_us,
+            grid,
+            self.params,
+            predictor,
+            field,
+        )
+    }
 }
 
 /// One pass: every window of `grid` in parallel, each with its predictor.

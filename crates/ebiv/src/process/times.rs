@@ -3,6 +3,17 @@
 
 use crate::error::{Error, Result};
 
+/// Field centre times `START:END:STEP`, END inclusive; START or END may be left out.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct FieldTimes {
+    /// First field time, µs (relative to the first event unless `absolute-time`).
+    pub start: Option<i64>,
+    /// Last field time (inclusive), µs.
+    pub end: Option<i64>,
+    /// Interval between fields, µs.
+    pub step: i64,
+}
+
 /// Field centre times `start, start + step, …, ≤ end` (µs).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct TimeSteps {

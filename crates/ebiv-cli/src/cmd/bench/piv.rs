@@ -46,7 +46,7 @@ pub fn run(args: &PivBenchArgs) -> Result<(), ebiv::Error> {
         ..PivParams::default()
     };
     if let Some(n) = args.iterations {
-        params.final_iterations = n;
+        params.last_pass_repeats = n;
     }
     let mut best = f64::INFINITY;
     let mut last = None;
@@ -71,7 +71,7 @@ pub fn run(args: &PivBenchArgs) -> Result<(), ebiv::Error> {
         100.0 * out.field.valid_share(),
         args.repeat.max(1),
         best,
-        super::bench::worker_threads(),
+        super::worker_threads(),
         evaluations.join(", ")
     );
     Ok(())

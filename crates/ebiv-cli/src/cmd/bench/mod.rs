@@ -1,5 +1,8 @@
 //! `ebiv bench`: measured throughput on this machine.
 
+mod piv;
+mod process;
+
 use crate::input::InputArgs;
 use clap::{Args, Subcommand};
 use std::path::PathBuf;
@@ -24,10 +27,10 @@ pub enum BenchWhat {
     /// Time per second of recording of both estimators at the EBIV paper's data rate and
     /// settings (simulated 1280x720 at about 20 M events/s, 40x40 px windows, 20 px step,
     /// T = 10 ms, 100 fields per second).
-    Process(super::bench_process::ProcessBenchArgs),
+    Process(process::ProcessBenchArgs),
     /// Multi-pass PIV of a synthetic 1024x1024 image pair, windows 64/32/16 px at 50 %
     /// overlap (the case timed for OpenPIV in the docs).
-    Piv(super::bench_piv::PivBenchArgs),
+    Piv(piv::PivBenchArgs),
 }
 
 #[derive(Debug, Args)]
@@ -67,14 +70,14 @@ pub fn run(args: &BenchArgs) -> Result<(), ebiv::Error> {
     match &args.what {
         BenchWhat::Decode(a) => decode(a),
         BenchWhat::Simulate(a) => simulate(a),
-        BenchWhat::Process(a) => super::bench_process::run(a),
-        BenchWhat::Piv(a) => super::bench_piv::run(a),
+        BenchWhat::Process(a) => process::run(a),
+        BenchWhat::Piv(a) => piv::run(a),
     }
 }
 
 fn simulate(args: &SimulateBenchArgs) -> Result<(), ebiv::Error> {
     let example = args.scenario.is_none().then_some(args.example.as_str());
-    let (mut scenario, _) = super::simulate::load_scenario(example, args.scenario.as_deref())?;
+    let (mut scenario, _) = crate::cmd::simulate::load_scenario(example, args.scenario.as_deref())?;
     scenario.duration = args.duration;
     let name = match &args.scenario {
         Some(path) => path.display().to_string(),

@@ -2,7 +2,7 @@
 //! EBIV paper's data rate and settings (Willert & Klinner 2022: 1280 × 720 px, ≈ 20 M
 //! events/s, 40 × 40 px windows on a 20 px step, T = 10 ms, 100 fields per second).
 
-use super::process_run::describe_passes;
+use crate::cmd::process::describe_passes;
 use clap::Args;
 use ebiv::estimate::corrsum::{CorrSumParams, SumOfCorrelation};
 use ebiv::estimate::motion::{ContrastMaximization, MotionParams};
@@ -37,7 +37,7 @@ pub struct ProcessBenchArgs {
 
 pub fn run(args: &ProcessBenchArgs) -> Result<(), ebiv::Error> {
     let text = ebiv::sim::scenario::Scenario::example("paper-rate").expect("built-in example");
-    let mut scenario = super::simulate::parse_scenario(text, "paper-rate")?;
+    let mut scenario = crate::cmd::simulate::parse_scenario(text, "paper-rate")?;
     scenario.duration = args.duration;
     if let Some(density) = args.density {
         scenario.particles.density = density;
@@ -105,14 +105,14 @@ fn time_method<E: Estimator>(
     println!(
         "{:8} {}: {} fields × {} windows in {best:.2} s (best of {}) = {:.0} windows/s; {:.2} s per second of recording at 100 fields/s ({:.1} % valid) on {}",
         estimator.name(),
-        describe_passes(params),
+        describe_passes(&params.passes),
         summary.fields,
         series.field_len(),
         repeat.max(1),
         summary.vectors as f64 / best,
         per_recording_second,
         100.0 * summary.valid as f64 / summary.vectors.max(1) as f64,
-        super::bench::worker_threads()
+        super::worker_threads()
     );
     Ok(())
 }

@@ -1,0 +1,59 @@
+//! `ebiv process --method corrsum|motion`: the event estimators over a recording.
+
+use super::figures::{describe_passes, finish_recording_run, write_series_figures, FieldProgress};
+use ebiv::estimate::Estimator;
+use ebiv::io::ReadOptions;
+use ebiv::process::{plan_fields, process_recording, PlannedFields};
+use ebiv::settings::Resolved;
+use ebiv::Error;
+use std::time::Instant;
+
+/// Stream the recording through `estimator`, write the series and the figures.
+pub fn run_estimator<E: Estimator>(
+    run: &Resolved,
+    options: &ReadOptions,
+    estimator: &E,
+) -> Result<(), Error> {
+    let input = run.input_path();
+    let PlannedFields {
+        mut reader,
+        geometry: g,
+        times,
+    } = plan_fields(
+        &input,
+        options,
+        run.time,
+        run.absolute_time,
+        estimator.time_extent_us(),
+        run.slab_us(),
+    )?;
+    let mut params = run.process.clone();
+    if let Some(mask) = &run.mask {
+        params.mask = Some(ebiv::frame::load_mask(mask, g)?);
+    }
+    params.grids(g)?; // report a window that does not fit before anything else
+    println!(
+        "{}: {} field(s) from {} to {} µs, {} on {g}, passes {}",
+        input.display(),
+        times.len(),
+        times[0],
+        times[times.len() - 1],
+        estimator.name(),
+        describe_passes(&params.passes)
+    );
+    if let Some(dir) = &run.png {
+        std::fs::create_dir_all(dir).map_err(|e| Error::io(dir, e))?;
+    }
+    let started = Instant::now();
+    let mut progress = FieldProgress::new(run, g, times.len(), estimator.time_extent_us());
+    let (mut series, summary) =
+        process_recording(&mut reader, g, estimator, &params, &times, &mut |d| {
+            progress.on_field(d)
+        })?;
+    let frames = progress.finish()?;
+    finish_recording_run(run, &mut series, &summary, started, &reader.report())?;
+    if let Some(dir) = &run.png {
+        write_series_figures(&series, dir, run, frames)?;
+    }
+    Ok(())
+}

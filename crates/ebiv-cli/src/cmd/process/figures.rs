@@ -1,0 +1,173 @@
+//! What `ebiv process` shows and writes besides the field file: the progress bar, a vector
+//! map per field, histograms, the animation, and the summary lines.
+
+use crate::progress::count_bar;
+use ebiv::field::FieldSeries;
+use ebiv::grid::GridSpec;
+use ebiv::process::{FieldDone, Method, RunSummary};
+use ebiv::render::{
+    save_png, time_coded_image, valid_components, vector_map, velocity_histograms, write_gif,
+    HistogramStyle, VectorMapStyle,
+};
+use ebiv::settings::Resolved;
+use ebiv::{Error, Geometry};
+use std::time::Instant;
+
+/// At most this many frames go into the animation.
+pub const MAX_GIF_FRAMES: usize = 200;
+
+/// Progress bar and per-field figures of a run over a recording: one vector map per field
+/// (`--png`), the first [`MAX_GIF_FRAMES`] kept for the animation.
+pub struct FieldProgress<'a> {
+    run: &'a Resolved,
+    geometry: Geometry,
+    extent_us: (i64, i64),
+    bar: indicatif::ProgressBar,
+    figures: Vec<image::RgbImage>,
+    error: Option<Error>,
+}
+
+impl<'a> FieldProgress<'a> {
+    /// For `fields` fields whose events span `extent_us` around their times.
+    pub fn new(
+        run: &'a Resolved,
+        geometry: Geometry,
+        fields: usize,
+        extent_us: (i64, i64),
+    ) -> Self {
+        FieldProgress {
+            run,
+            geometry,
+            extent_us,
+            bar: count_bar(fields as u64, "fields"),
+            figures: Vec::new(),
+            error: None,
+        }
+    }
+
+    /// Advance the bar and draw the field (the first failure to write stops the drawing).
+    pub fn on_field(&mut self, d: &FieldDone) {
+        self.bar.set_position(d.done as u64);
+        if let (Some(dir), None) = (&self.run.png, &self.error) {
+            let figure = field_figure(d, self.geometry, self.run, self.extent_us);
+            let path = dir.join(format!("field_{:04}.png", d.done - 1));
+            if let Err(e) = save_png(&figure, &path) {
+                self.error = Some(e);
+            } else if self.figures.len() < MAX_GIF_FRAMES {
+                self.figures.push(figure);
+            }
+        }
+    }
+
+    /// Clear the bar; the figures for the animation, or the first error.
+    pub fn finish(self) -> Result<Vec<image::RgbImage>, Error> {
+        self.bar.finish_and_clear();
+        match self.error {
+            Some(e) => Err(e),
+            None => Ok(self.figures),
+        }
+    }
+}
+
+/// After a run over a recording: report dropped input, attach calibration and source,
+/// write the series and print the summary line (vectors, valid share, time, throughput).
+pub fn finish_recording_run(
+    run: &Resolved,
+    series: &mut FieldSeries,
+    summary: &RunSummary,
+    started: Instant,
+    report: &ebiv::io::DecodeReport,
+) -> Result<(), Error> {
+    let seconds = started.elapsed().as_secs_f64();
+    crate::cmd::print_report_summary(report);
+    series.calibration = run.calibration;
+    series
+        .attributes
+        .push(("source".into(), run.input_path().display().to_string()));
+    ebiv::export::write_field(series, &run.output)?;
+    let secondary = match summary.secondary_peaks {
+        0 => String::new(),
+        n => format!("; {n} outliers valid on a secondary peak"),
+    };
+    println!(
+        "{} vectors in {} field(s), {:.1} % valid ({} flagged by validation{secondary}), in {:.2} s ({:.1} M events/s read, {:.0} vectors/s)",
+        summary.vectors,
+        summary.fields,
+        100.0 * summary.valid as f64 / summary.vectors.max(1) as f64,
+        summary.flagged,
+        seconds,
+        summary.events_read as f64 / seconds / 1e6,
+        summary.vectors as f64 / seconds
+    );
+    println!("wrote {}", run.output.display());
+    Ok(())
+}
+
+/// "64x64 px step 32 -> 40x40 px step 20".
+pub fn describe_passes(passes: &[GridSpec]) -> String {
+    passes
+        .iter()
+        .map(|g| format!("{}x{} px step {}", g.window[0], g.window[1], g.step[0]))
+        .collect::<Vec<_>>()
+        .join(" -> ")
+}
+
+/// The vector map of one field over the time-coded image of its slab.
+fn field_figure(d: &FieldDone, g: Geometry, run: &Resolved, extent: (i64, i64)) -> image::RgbImage {
+    let half = extent.0.min(extent.1).max(1);
+    let events = time_coded_image(d.events, g, d.t0_us, half, run.process.polarity);
+    let style = VectorMapStyle {
+        title: Some(format!(
+            "{} t = {:.2} ms",
+            run.input_path()
+                .file_name()
+                .unwrap_or_default()
+                .to_string_lossy(),
+            d.t0_us as f64 / 1000.0
+        )),
+        ..VectorMapStyle::default()
+    };
+    vector_map(d.field, g, Some(&events.image), &style)
+}
+
+/// Histograms of the valid u and v of a series (with the fractional displacement over
+/// `tau_ms`, when given, to expose peak locking).
+pub fn series_histograms(
+    series: &FieldSeries,
+    title_prefix: &str,
+    tau_ms: Option<f64>,
+) -> image::RgbImage {
+    let (u, v) = valid_components(&series.u, &series.v, &series.status);
+    velocity_histograms(
+        &u,
+        &v,
+        &HistogramStyle {
+            displacement_ms: tau_ms,
+            title: Some(format!("{title_prefix}{} valid vectors", u.len())),
+            ..HistogramStyle::default()
+        },
+    )
+}
+
+/// Histograms of u and v and the animation, after the run.
+pub fn write_series_figures(
+    series: &FieldSeries,
+    dir: &std::path::Path,
+    run: &Resolved,
+    frames: Vec<image::RgbImage>,
+) -> Result<(), Error> {
+    let tau_ms = match run.method {
+        Method::CorrSum => Some(run.corrsum.tau_us as f64 / 1000.0),
+        Method::Piv => Some(run.frame_step_us as f64 / 1000.0),
+        Method::Motion | Method::Pulsed => None,
+    };
+    let hist = series_histograms(series, "", tau_ms);
+    save_png(&hist, &dir.join("histograms.png"))?;
+    let mut written = format!("histograms.png and {} vector map(s)", series.t_us.len());
+    if frames.len() > 1 {
+        write_gif(&frames, 200, &dir.join("animation.gif"))?;
+        written.push_str(", animation.gif");
+    }
+    println!("figures in {}: {written}", dir.display());
+    Ok(())
+}

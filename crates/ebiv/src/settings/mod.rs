@@ -1,0 +1,265 @@
+//! The settings of a velocity measurement: one schema for the library, the command line,
+//! the configuration file and the `ebiv init` template.
+//!
+//! Each setting is defined once, below, as a field of [`ProcessSettings`]: its type, its
+//! default, its help text (the doc comment), the placeholder of its value and the check of
+//! its range. [`settings()`] describes them all; the CLI builds its `ebiv process` flags from
+//! that description, [`ProcessSettings::apply_table`] reads configuration files with it, and
+//! [`template`] writes the commented file. Keys are kebab-case and durations take units
+//! everywhere (`slab = "10ms"`, `--slab 10ms`). [`ProcessSettings::resolve`] turns the
+//! settings into the parameters of the estimators and of the multi-pass engine.
+
+mod checks;
+mod resolve;
+mod table;
+mod value;
+
+pub use crate::process::FieldTimes;
+pub use resolve::{Resolved, Source};
+pub use table::{find, template, Setting};
+pub use value::{Duration, Kind, PixelList, Point, SettingValue, TextList};
+
+use crate::estimate::corrsum::{CorrKernel, Weighting};
+use crate::estimate::motion::{Objective, SearchMethod};
+use crate::estimate::peak::SubPixelFit;
+use crate::event::PolaritySelection;
+use crate::filter::Roi;
+use crate::frame::events::FrameKind;
+use crate::piv::{CorrelationKind, DeformationMode, Interpolation};
+use crate::process::Method;
+use checks::*;
+use std::path::PathBuf;
+use std::sync::OnceLock;
+
+/// Defines [`ProcessSettings`], its `Default` and the table of [`Setting`]s from one list.
+macro_rules! settings {
+    ($(
+        group $group:literal {
+            $(
+                $(#[doc = $doc:literal])*
+                $field:ident : $ty:ty = $default:expr ; $value_name:literal
+                $(, short $short:literal)?
+                $(, alias $alias:literal)*
+                $(, check $check:expr)?
+                $(, positional $positional:literal)? ;
+            )*
+        }
+    )*) => {
+        /// Every setting of `ebiv process`, with its default. See the module documentation.
+        #[derive(Debug, Clone, PartialEq)]
+        pub struct ProcessSettings {
+            $($( $(#[doc = $doc])* pub $field: $ty, )*)*
+        }
+
+        impl Default for ProcessSettings {
+            fn default() -> Self {
+                ProcessSettings { $($( $field: $default, )*)* }
+            }
+        }
+
+        fn build_settings() -> Vec<Setting> {
+            vec![$($(
+                Setting {
+                    key: kebab(stringify!($field)),
+                    aliases: &[$($alias),*],
+                    short: None $(.or(Some($short)))?,
+                    group: $group,
+                    help: help_text(&[$($doc),*]),
+                    value_name: $value_name,
+                    kind: <$ty as SettingValue>::KIND,
+                    positional: false $(|| $positional)?,
+                    get: |s| s.$field.to_toml(),
+                    set: |s, v| {
+                        let value = <$ty as SettingValue>::from_toml(v)?;
+                        $( ($check)(&value)?; )?
+                        s.$field = value;
+                        Ok(())
+                    },
+                    set_texts: |s, texts| {
+                        let value = <$ty as SettingValue>::from_texts(texts)?;
+                        $( ($check)(&value)?; )?
+                        s.$field = value;
+                        Ok(())
+                    },
+                },
+            )*)*]
+        }
+    };
+}
+
+settings! {
+    group "Input and output" {
+        /// The recording (any format `ebiv info` reads); not needed with `images`.
+        input: Option<PathBuf> = None; "FILE", positional true;
+        /// Output file: .nc (NetCDF), .csv, .npz, .dat (Tecplot) or .vtk.
+        output: PathBuf = PathBuf::from("flow.nc"); "FILE", short 'o';
+        /// Folder for figures: a vector map per field over its event image, histograms of u
+        /// and v, and an animated GIF of the series.
+        png: Option<PathBuf> = None; "DIR";
+        /// Mask image of the sensor's size (PNG, TIFF, BMP): non-zero pixels are left out;
+        /// windows centred on them are flagged `masked`.
+        mask: Option<PathBuf> = None; "IMAGE";
+    }
+    group "Method and time" {
+        /// Estimator: corrsum (sum of correlation, fast), motion (motion compensation), piv
+        /// (cross-correlation PIV of frames rebuilt from the events, or of `images`) or pulsed
+        /// (PIV of one frame per light pulse, pulse timing detected).
+        method: Method = Method::CorrSum; "METHOD";
+        /// Time slab T of one field (corrsum, motion).
+        slab: Duration = Duration::ms(10); "DUR", check positive_duration;
+        /// Field centre times START:END:STEP (END inclusive), from the first event, e.g.
+        /// 60ms:60ms:1ms for one field at 60 ms; START or END may be left out (::5ms).
+        /// Default: every field that fits in the recording, one per slab.
+        time: Option<FieldTimes> = None; "START:END:STEP";
+        /// Read `time` as camera time stamps rather than from the first event.
+        absolute_time: bool = false; "";
+        /// Events used: pos, neg or both (pos, as in the EBIV paper).
+        polarity: PolaritySelection = PolaritySelection::Positive; "POL";
+    }
+    group "Interrogation windows and passes" {
+        /// Window size in px, one per pass, largest first (e.g. 40 or 64,40); the first
+        /// passes predict the velocity for the next. Default: 64,40 (piv and pulsed:
+        /// 64,32,16).
+        window: Option<PixelList> = None; "PX[,PX..]", alias "passes", check positive_pixels;
+        /// Grid step in px, one per pass. Default: window × (1 − overlap).
+        step: Option<PixelList> = None; "PX[,PX..]", check positive_pixels;
+        /// Overlap of neighbouring windows, 0 ≤ overlap < 1, when `step` is not given.
+        overlap: f64 = 0.5; "FRACTION", check overlap_fraction;
+        /// Region the windows must lie in: x,y,width,height (px).
+        roi: Option<Roi> = None; "X,Y,W,H";
+        /// Sub-pixel peak fit: gauss3, parabolic or gauss2d. Default: gauss2d for corrsum,
+        /// gauss3 for motion (where its grid search runs) and PIV.
+        fit: Option<SubPixelFit> = None; "FIT";
+        /// Repetitions of the last pass of a multi-pass run at most, each with the previous
+        /// result as predictor, until the field changes by less than `repeat-tolerance`
+        /// (PIV: also after a single pass).
+        last_pass_repeats: u32 = 2; "N", alias "iterations", check at_most_twenty;
+        /// Mean change of the valid vectors between two repetitions of the last pass below
+        /// which they stop, in the field's unit (px/ms; px for image pairs without `dt`).
+        /// Default: 0.005 for the event methods, 0.01 for PIV.
+        repeat_tolerance: Option<f64> = None; "VALUE", check non_negative;
+        /// Smoothing of the predictor between passes, in grid nodes (0 = none). Default: 1
+        /// for the event methods (σ of the weights of a local linear fit), 0.5 for PIV (σ of
+        /// a Gaussian filter).
+        predictor_smoothing: Option<f64> = None; "NODES", check non_negative;
+        /// Deform the events of later passes by the predictor's velocity gradient, so that
+        /// vectors refer to their window centre (corrsum, motion).
+        deform: bool = true; "";
+        /// Replace outliers of the last pass by interpolation of their neighbours (they keep
+        /// their flag plus `replaced`).
+        replace: bool = false; "";
+        /// Re-evaluate the last pass's median-test outliers on a lower correlation peak near
+        /// their neighbours' median (corrsum, multi-pass runs).
+        secondary_peaks: bool = true; "";
+    }
+    group "Validation" {
+        /// Normalized median test threshold (Westerweel & Scarano 2005).
+        median_threshold: f64 = 2.0; "VALUE", check positive;
+        /// Normalized median test ε in px/ms (px for image pairs without `dt`).
+        median_epsilon: f64 = 0.1; "VALUE", check non_negative;
+        /// Flag windows with fewer events (piv: fewer non-zero pixels in the first frame);
+        /// 0 = off.
+        min_events: u32 = 0; "N";
+        /// Flag correlation peaks whose first/second peak ratio is lower; 0 = off.
+        min_peak_ratio: f64 = 0.0; "RATIO", check non_negative;
+        /// Flag vectors faster than this, px/ms (px for image pairs without `dt`).
+        max_velocity: Option<f64> = None; "VALUE", check positive;
+    }
+    group "Sum of correlation (corrsum)" {
+        /// Delay τ between the two sub-volumes.
+        tau: Duration = Duration::ms(3); "DUR", check positive_duration;
+        /// Time slices N_T per sub-volume.
+        slices: u32 = 20; "N", check at_least_one;
+        /// Voxel value: binary (one per pixel and time slice holding any event, as in the
+        /// paper) or count (its number of events).
+        weighting: Weighting = Weighting::Binary; "binary|count";
+        /// σ in px of the Gaussian that smooths the summed correlation plane around its
+        /// maximum before the sub-pixel fit, against peak locking (0 = off).
+        peak_smoothing: f64 = 1.0; "PX", check non_negative;
+        /// Keep the events' positions sub-pixel wherever a predictor shifts and deforms the
+        /// windows: lower random error, about twice the processing time of those passes.
+        subpixel_shift: bool = false; "";
+        /// Largest displacement searched from the window offset, px per axis. Default: a
+        /// third of the window.
+        search_radius: Option<u32> = None; "PX", check at_least_one_px;
+        /// Correlation kernel: auto (direct for sparse windows, FFT for dense ones), fft or
+        /// direct; all give the same plane.
+        kernel: CorrKernel = CorrKernel::Auto; "KERNEL";
+    }
+    group "Motion compensation (motion)" {
+        /// How the contrast maximum is found: newton (analytic gradient and Hessian from an
+        /// event-pair vote, about three evaluations) or grid (the paper's coarse grid and
+        /// 5×5 refinement, 100–200 evaluations).
+        motion_search: SearchMethod = SearchMethod::Newton; "METHOD";
+        /// Half-width of the velocity search range in px/ms. Default: window/slab, a
+        /// quarter of it around a previous pass's prediction.
+        search_range: Option<f64> = None; "PX_PER_MS", check positive;
+        /// Sharpness objective of the warped event image: variance, sum-of-squares,
+        /// sum-exp, r1, isoa or max-accumulation.
+        objective: Objective = Objective::Variance; "OBJECTIVE";
+        /// Step of the grid search's coarse candidates, px/ms.
+        coarse_step: f64 = 0.25; "PX_PER_MS", check positive;
+        /// Smallest refinement step of the grid search, px/ms.
+        final_step: f64 = 0.05; "PX_PER_MS", check positive;
+    }
+    group "Both event estimators" {
+        /// Windows with fewer events (corrsum: mean per sub-volume) are flagged `few_events`
+        /// by the estimator itself.
+        estimator_min_events: u32 = 10; "N";
+    }
+    group "PIV (piv, pulsed)" {
+        /// Image files or patterns (frames/*.png) instead of a recording (method piv); pairs
+        /// (1,2), (3,4), …; u and v are then displacements in px (velocities with `dt`).
+        images: Option<TextList> = None; "IMAGE";
+        /// Image input: pair the images as a sequence (1,2), (2,3), …
+        sequence: bool = false; "";
+        /// Image input: sum the correlation planes of all pairs into one field (ensemble
+        /// PIV).
+        ensemble: bool = false; "";
+        /// Image input: time between the two frames of a pair; outputs velocities in px/ms.
+        dt: Option<Duration> = None; "DUR", check positive_duration;
+        /// Correlation: circular or linear (zero-padded).
+        correlation: CorrelationKind = CorrelationKind::Circular; "KIND";
+        /// Window deformation: symmetric (both frames by ∓½ the predictor) or second.
+        deformation: DeformationMode = DeformationMode::Symmetric; "MODE";
+        /// Image interpolation for the deformation: quintic, cubic or linear.
+        interpolation: Interpolation = Interpolation::Quintic; "KIND";
+        /// Events: exposure of one rebuilt frame.
+        exposure: Duration = Duration(1500); "DUR", check positive_duration;
+        /// Events: time Δt between consecutive frames.
+        frame_step: Duration = Duration(2500); "DUR", check positive_duration;
+        /// Events: frame kind, count, binary or time-surface.
+        frame_kind: FrameKind = FrameKind::Count; "KIND";
+        /// Events: spread each event over a Gaussian of this σ in px (0 = none).
+        splat: f64 = 0.0; "PX", check splat_sigma;
+        /// Events: frame pairs per field whose correlation planes are summed (3 for the
+        /// paper's four-frame sequences).
+        pairs: u32 = 1; "N", check frame_pairs;
+        /// Pulsed: nominal pulse frequency in Hz. Default: found from the events or triggers.
+        pulse_hz: Option<f64> = None; "HZ", check positive;
+    }
+    group "Calibration" {
+        /// Millimetres per pixel; outputs then give mm and m/s.
+        mm_per_px: Option<f64> = None; "MM", check positive;
+        /// Image point X,Y (px) of the physical origin. Default: 0,0.
+        origin: Option<Point> = None; "X,Y";
+        /// Physical y axis upwards (flips y and v together).
+        y_up: bool = false; "";
+    }
+}
+
+/// Every setting, in the order of `--help` and the template.
+pub fn settings() -> &'static [Setting] {
+    static SETTINGS: OnceLock<Vec<Setting>> = OnceLock::new();
+    SETTINGS.get_or_init(build_settings)
+}
+
+/// `median_threshold` → `median-threshold`, made once per setting.
+fn kebab(field: &str) -> &'static str {
+    Box::leak(field.replace('_', "-").into_boxed_str())
+}
+
+/// The doc comment's lines as one paragraph of help text.
+fn help_text(lines: &[&str]) -> String {
+    lines.iter().map(|l| l.trim()).collect::<Vec<_>>().join(" ")
+}
