@@ -112,10 +112,7 @@ impl ProcessSettings {
                 ))
             }
             (_, Some(_)) if method != Method::Piv => {
-                return Err(Error::parameter(
-                    "images",
-                    "image input needs method piv (--method piv)",
-                ))
+                return Err(Error::parameter("images", "image input needs --method piv"))
             }
             (Some(path), None) => Source::Recording(path.clone()),
             (None, Some(images)) => Source::Images(images.0.clone()),
