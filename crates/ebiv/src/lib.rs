@@ -6,12 +6,15 @@
 //! `ebiv-cli` only parses options and reports progress.
 //!
 //! Layers (lowest first): data types ([`event`], [`field`], [`grid`]), file input/output
-//! ([`io`]) and simulation ([`sim`]), tiled time slabs ([`volume`]), window estimators
-//! ([`estimate`]), validation ([`validate`]), field processing ([`process`]), image frames read
-//! from files or rebuilt from events and pulse timing ([`frame`]), cross-correlation PIV on
-//! frames and pulsed EBIV ([`piv`]), outputs ([`export`], [`render`]).
+//! ([`io`]) and simulation ([`sim`]), tiled time slabs ([`volume`]) and deformation by a
+//! predicted motion ([`deform`]), correlation peaks shared by every method ([`peak`]), window
+//! estimators ([`estimate`]), validation ([`validate`]), the one multi-pass engine and run
+//! planning ([`process`]), image frames read from files or rebuilt from events and pulse
+//! timing ([`frame`]), cross-correlation PIV on frames and pulsed EBIV ([`piv`]), the settings
+//! of a run ([`settings`]), outputs ([`export`], [`render`]).
 
 pub mod assess;
+pub mod deform;
 pub mod error;
 pub mod estimate;
 pub mod event;
@@ -21,6 +24,7 @@ pub mod filter;
 pub mod frame;
 pub mod grid;
 pub mod io;
+pub mod peak;
 pub mod piv;
 pub mod process;
 pub mod render;

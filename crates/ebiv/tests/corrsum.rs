@@ -6,10 +6,10 @@
 //! form from the straight track. Only ON events are used, as in the reference driver.
 
 use ebiv::estimate::corrsum::{CorrKernel, CorrSumParams, SumOfCorrelation, Weighting};
-use ebiv::estimate::peak::SubPixelFit;
 use ebiv::estimate::{Estimator, Prediction, WindowEstimate};
 use ebiv::field::Status;
 use ebiv::grid::Window;
+use ebiv::peak::SubPixelFit;
 use ebiv::volume::Slab;
 use ebiv::{Geometry, PolaritySelection};
 

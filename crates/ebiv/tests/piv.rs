@@ -5,9 +5,9 @@ mod common;
 use ebiv::field::{Status, VectorField};
 use ebiv::frame::Frame;
 use ebiv::grid::{GridSpec, Mask};
-use ebiv::piv::synthetic::{particle_image_pair, ParticleImageParams};
 use ebiv::piv::{piv_ensemble, piv_pair, PivParams};
 use ebiv::render::peak_locking_index;
+use ebiv::sim::piv_images::{particle_image_pair, ParticleImageParams};
 
 /// Bias and RMS error per component over the interior valid vectors (at least `margin` px
 /// from the frame border), against `truth`, plus the valid share.

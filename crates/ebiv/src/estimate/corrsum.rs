@@ -27,12 +27,13 @@ mod voxels;
 
 use serde::{Deserialize, Serialize};
 
-use super::peak::{argmax, find_peak_within, peak_at, SubPixelFit};
 use super::{Estimator, Prediction, WindowEstimate};
+use crate::deform::events::Deformation;
 use crate::error::{Error, Result};
 use crate::field::Status;
 use crate::grid::Window;
-use crate::volume::{Deformation, Slab, TileRun, TileVisitor, WindowEvents};
+use crate::peak::{argmax, find_peak_within, peak_at, SubPixelFit};
+use crate::volume::{Slab, TileRun, TileVisitor, WindowEvents};
 use fit::{refine_with_kernel, SmoothingKernel};
 use fourier::Fourier;
 use voxels::{slice_statistics, Overlap, PlaneShape, SliceStats, Voxeliser, Voxels};

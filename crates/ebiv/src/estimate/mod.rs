@@ -8,13 +8,13 @@
 
 pub mod corrsum;
 pub mod motion;
-pub mod peak;
+pub use crate::peak;
 
 use crate::field::Status;
 use crate::grid::Window;
 use crate::volume::{Slab, WindowEvents};
 
-pub use crate::volume::Deformation;
+pub use crate::deform::events::Deformation;
 
 /// What a previous pass predicts for a window: the velocity at its centre and, where the
 /// predictor field allows, the local velocity gradient used to deform the events.

@@ -36,11 +36,11 @@ mod votes;
 
 use serde::{Deserialize, Serialize};
 
-use super::peak::SubPixelFit;
 use super::{gather_predicted, Estimator, Prediction, WindowEstimate};
 use crate::error::{Error, Result};
 use crate::field::Status;
 use crate::grid::Window;
+use crate::peak::SubPixelFit;
 use crate::volume::{Slab, WindowEvents};
 use iwe::{Events, SplatTable};
 use search::{Search, SearchScratch};

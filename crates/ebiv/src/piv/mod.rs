@@ -7,7 +7,7 @@
 //! 2. its field is validated (normalized median test), gaps are filled and the field is
 //!    smoothed: the predictor;
 //! 3. every later pass interpolates the predictor to each pixel, deforms both frames by half
-//!    of it in opposite directions ([`deform`], central differences), correlates the deformed
+//!    of it in opposite directions ([`crate::deform::frames`], central differences), correlates the deformed
 //!    windows ([`correlate`]) and adds the residual displacement to the predictor;
 //! 4. the last pass may be repeated until the field changes by less than
 //!    [`PivParams::repeat_tolerance`] (PIVlab's iterative last pass), and is validated; replacing
@@ -23,20 +23,18 @@
 //! window in `event_count`.
 
 pub mod correlate;
-pub mod deform;
 pub mod events;
 pub mod images;
-pub mod synthetic;
 
+pub use crate::deform::frames::{DenseField, Interpolation, Resampler};
 pub use correlate::{CorrelationKind, Correlator};
-pub use deform::{DenseField, Interpolation, Resampler};
 pub use events::{piv_events, EventPivParams, FrameClock, FramePlan};
 
 use crate::error::{Error, Result};
-use crate::estimate::peak::{find_peak, SubPixelFit};
 use crate::field::{Status, VectorField};
 use crate::frame::Frame;
 use crate::grid::{Grid, GridSpec, Mask, Window};
+use crate::peak::{find_peak, SubPixelFit};
 use crate::process::{run_passes, MultiPass, PassEvaluator, PassReport};
 use crate::validate::{self, ValidationParams, ValidationSummary};
 use rayon::prelude::*;

@@ -79,7 +79,7 @@ pub struct ProcessParams {
     /// Pixels to leave out; windows whose centre is masked are not evaluated.
     pub mask: Option<Mask>,
     /// Deform the events of later passes by the predictor's local velocity gradient
-    /// ([`crate::volume::Deformation`]), so that vectors refer to their window centre.
+    /// ([`crate::deform::events::Deformation`]), so that vectors refer to their window centre.
     pub deform: bool,
     /// Times the last pass of a multi-pass run is repeated with its own result as the
     /// predictor (PIVlab's "repeat last pass"; Thielicke & Sonntag 2021, J. Open Res. Softw.

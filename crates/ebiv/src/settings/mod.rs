@@ -21,10 +21,10 @@ pub use value::{Duration, Kind, PixelList, Point, SettingValue, TextList};
 
 use crate::estimate::corrsum::{CorrKernel, Weighting};
 use crate::estimate::motion::{Objective, SearchMethod};
-use crate::estimate::peak::SubPixelFit;
 use crate::event::PolaritySelection;
 use crate::filter::Roi;
 use crate::frame::events::FrameKind;
+use crate::peak::SubPixelFit;
 use crate::piv::{CorrelationKind, DeformationMode, Interpolation};
 use crate::process::Method;
 use checks::*;

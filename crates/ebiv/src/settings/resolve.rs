@@ -6,11 +6,13 @@ use super::ProcessSettings;
 use crate::error::{Error, Result};
 use crate::estimate::corrsum::CorrSumParams;
 use crate::estimate::motion::MotionParams;
+use crate::event::Geometry;
 use crate::field::Calibration;
 use crate::frame::events::FrameSpec;
-use crate::grid::GridSpec;
+use crate::grid::{GridSpec, Mask};
+use crate::io::ReadOptions;
 use crate::piv::PivParams;
-use crate::process::{Method, ProcessParams};
+use crate::process::{plan_fields, Method, PlannedFields, ProcessParams};
 use crate::validate::ValidationParams;
 use std::path::PathBuf;
 
@@ -87,6 +89,33 @@ impl Resolved {
             Source::Recording(p) => p.clone(),
             Source::Images(images) => PathBuf::from(images.first().cloned().unwrap_or_default()),
         }
+    }
+
+    /// Open the recording and plan its field times ([`plan_fields`]) for a method whose
+    /// fields need `extent_us` = (before, after) µs of events around their times, one every
+    /// `default_step` µs unless `time` says otherwise.
+    pub fn plan_fields(
+        &self,
+        options: &ReadOptions,
+        extent_us: (i64, i64),
+        default_step: i64,
+    ) -> Result<PlannedFields> {
+        plan_fields(
+            &self.input_path(),
+            options,
+            self.time,
+            self.absolute_time,
+            extent_us,
+            default_step,
+        )
+    }
+
+    /// The mask image for a sensor or frames of `geometry`, if one is given.
+    pub fn mask_for(&self, geometry: Geometry) -> Result<Option<Mask>> {
+        self.mask
+            .as_deref()
+            .map(|path| crate::frame::load_mask(path, geometry))
+            .transpose()
     }
 
     /// The slab T of the event methods, µs.
@@ -325,10 +354,7 @@ mod tests {
     #[test]
     fn one_fit_sets_every_estimator() {
         let r = with(&[("fit", "parabolic")]).unwrap();
-        assert_eq!(
-            r.corrsum.fit,
-            crate::estimate::peak::SubPixelFit::Parabolic3
-        );
+        assert_eq!(r.corrsum.fit, crate::peak::SubPixelFit::Parabolic3);
         assert_eq!(r.motion.fit, r.corrsum.fit);
         assert_eq!(r.piv.fit, r.corrsum.fit);
     }

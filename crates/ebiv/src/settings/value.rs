@@ -7,10 +7,10 @@
 
 use crate::estimate::corrsum::{CorrKernel, Weighting};
 use crate::estimate::motion::{Objective, SearchMethod};
-use crate::estimate::peak::SubPixelFit;
 use crate::event::PolaritySelection;
 use crate::filter::Roi;
 use crate::frame::events::FrameKind;
+use crate::peak::SubPixelFit;
 use crate::piv::{CorrelationKind, DeformationMode, Interpolation};
 use crate::process::{FieldTimes, Method, TimeSteps};
 use std::path::PathBuf;

@@ -8,6 +8,7 @@ mod fastmath;
 pub mod flow;
 pub mod ode;
 pub mod particles;
+pub mod piv_images;
 pub mod rng;
 pub mod scenario;
 pub mod scene;

@@ -1,8 +1,8 @@
 //! `ebiv bench piv`: multi-pass PIV of a synthetic image pair, timed.
 
 use clap::Args;
-use ebiv::piv::synthetic::{particle_image_pair, ParticleImageParams};
 use ebiv::piv::{piv_pair, PivParams};
+use ebiv::sim::piv_images::{particle_image_pair, ParticleImageParams};
 use std::time::Instant;
 
 /// Settings of the PIV benchmark (defaults: the 1024×1024, 64/32/16 px, 50 % overlap case

@@ -3,7 +3,7 @@
 use super::figures::{describe_passes, finish_recording_run, write_series_figures, FieldProgress};
 use ebiv::estimate::Estimator;
 use ebiv::io::ReadOptions;
-use ebiv::process::{plan_fields, process_recording, PlannedFields};
+use ebiv::process::{process_recording, PlannedFields};
 use ebiv::settings::Resolved;
 use ebiv::Error;
 use std::time::Instant;
@@ -19,18 +19,9 @@ pub fn run_estimator<E: Estimator>(
         mut reader,
         geometry: g,
         times,
-    } = plan_fields(
-        &input,
-        options,
-        run.time,
-        run.absolute_time,
-        estimator.time_extent_us(),
-        run.slab_us(),
-    )?;
+    } = run.plan_fields(options, estimator.time_extent_us(), run.slab_us())?;
     let mut params = run.process.clone();
-    if let Some(mask) = &run.mask {
-        params.mask = Some(ebiv::frame::load_mask(mask, g)?);
-    }
+    params.mask = run.mask_for(g)?;
     params.grids(g)?; // report a window that does not fit before anything else
     println!(
         "{}: {} field(s) from {} to {} µs, {} on {g}, passes {}",

@@ -13,7 +13,7 @@ use ebiv::piv::images::{
     image_folder, image_pairs, load_images, piv_image_series, scaled_params, ImageSeriesParams,
 };
 use ebiv::piv::{piv_events, EventPivParams, FrameClock, PivParams};
-use ebiv::process::{first_event_time, plan_fields, Method, PlannedFields};
+use ebiv::process::{first_event_time, Method, PlannedFields};
 use ebiv::render::{frame_image, save_png, vector_map, write_gif, VectorMapStyle};
 use ebiv::settings::{Resolved, Source};
 use ebiv::Error;
@@ -26,7 +26,7 @@ pub fn run_images(run: &Resolved) -> Result<(), Error> {
         unreachable!("called for image input only")
     };
     let paths = ebiv::frame::file::expand_image_list(patterns)?;
-    image_pairs(paths.len(), run.sequence)?; // before loading anything
+    let pairs = image_pairs(paths.len(), run.sequence)?; // before loading anything
     let bar = count_bar(paths.len() as u64, "images");
     let frames = load_images(&paths, run.ensemble, &mut || bar.inc(1))?;
     bar.finish_and_clear();
@@ -37,13 +37,10 @@ pub fn run_images(run: &Resolved) -> Result<(), Error> {
         ensemble: run.ensemble,
         dt_us: run.dt_us,
     };
-    if let Some(mask) = &run.mask {
-        params.piv.mask = Some(ebiv::frame::load_mask(mask, g)?);
-    }
+    params.piv.mask = run.mask_for(g)?;
     for pass in &params.piv.passes {
         ebiv::grid::Grid::new(pass, g)?;
     }
-    let pairs = image_pairs(paths.len(), run.sequence)?;
     let (fields, per_field) = if run.ensemble {
         (1, pairs.len())
     } else {
@@ -201,17 +198,8 @@ pub fn run_events(run: &Resolved, options: &ReadOptions) -> Result<(), Error> {
         mut reader,
         geometry: g,
         times,
-    } = plan_fields(
-        &input,
-        options,
-        run.time,
-        run.absolute_time,
-        (before, after),
-        before + after,
-    )?;
-    if let Some(mask) = &run.mask {
-        params.piv.mask = Some(ebiv::frame::load_mask(mask, g)?);
-    }
+    } = run.plan_fields(options, (before, after), before + after)?;
+    params.piv.mask = run.mask_for(g)?;
     for pass in &params.piv.passes {
         ebiv::grid::Grid::new(pass, g)?;
     }

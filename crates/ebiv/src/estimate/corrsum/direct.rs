@@ -117,7 +117,7 @@ impl Accumulators {
     }
 
     /// The maximum of every row of the last plane computed by [`correlate`] (or given to
-    /// [`Accumulators::find_row_maxima`]), as [`crate::estimate::peak::peak_at`]
+    /// [`Accumulators::find_row_maxima`]), as [`crate::peak::peak_at`]
     /// takes them.
     pub fn row_maxima(&self) -> &[f64] {
         &self.row_max
@@ -151,7 +151,7 @@ impl PairLayout {
 }
 
 /// Fill `plane` with the normalised correlation of the slices in `stats` and return the
-/// index of its first maximum (as [`crate::estimate::peak::argmax`] finds it), `None` if no
+/// index of its first maximum (as [`crate::peak::argmax`] finds it), `None` if no
 /// value exceeds −∞.
 pub(super) fn correlate(
     a: SubVolume<'_>,
@@ -376,7 +376,7 @@ fn add_pair_products(
 }
 
 /// The largest value of `values` that exceeds −∞ and all values before it, as
-/// [`crate::estimate::peak::argmax`] keeps it (NaN never exceeds; −∞ if no value does), in
+/// [`crate::peak::argmax`] keeps it (NaN never exceeds; −∞ if no value does), in
 /// two independent lanes (`maxsd`/`maxpd`, no branch per value). Of values equal to the
 /// maximum the scan's choice is the first, which the caller finds by comparing; the lanes
 /// may return another of them (such as −0 for +0), equal all the same.

@@ -1,11 +1,11 @@
 //! Sub-pixel refinement of tilted, narrow correlation peaks.
 
-use crate::estimate::peak::{three_point, Peak, SubPixelFit};
+use crate::peak::{three_point, Peak, SubPixelFit};
 
 /// Peak position. For the 2-D Gaussian fit, a log-domain least-squares Gaussian over the
 /// positive values of the 3 × 3 neighbourhood, weighted by value² (Nobach & Honkanen 2005):
 /// beside the narrow, tilted peaks of event correlation one of the nine values is often not
-/// positive, and [`find_peak`](crate::estimate::peak::find_peak)'s axis-wise fall-back is then biased (up to 0.3 px).
+/// positive, and [`find_peak`](crate::peak::find_peak)'s axis-wise fall-back is then biased (up to 0.3 px).
 pub(super) fn refine_tilted(
     plane: &[f64],
     width: usize,

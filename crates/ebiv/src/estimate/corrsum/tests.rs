@@ -6,7 +6,7 @@ use super::voxels::{
     slice_statistics, Overlap, PlaneShape, SliceStats, SubVolume, Voxeliser, Voxels,
 };
 use super::*;
-use crate::estimate::peak::find_peak;
+use crate::peak::find_peak;
 use crate::volume::TileRun;
 
 /// SplitMix64: a small deterministic generator for test inputs.
@@ -132,7 +132,7 @@ fn direct_fft_and_definition_agree_on_random_inputs() {
         let mut direct = vec![0.0; pw * ph];
         let mut acc = direct::Accumulators::new(shape);
         let best = direct::correlate(a, b, &stats, shape, &overlap, &mut direct, &mut acc);
-        assert_eq!(best, crate::estimate::peak::argmax(&direct));
+        assert_eq!(best, crate::peak::argmax(&direct));
         // The row maxima tracked by the kernel are the plain maxima of the plane's rows.
         let plain: Vec<f64> = direct
             .chunks(pw)

@@ -26,8 +26,8 @@ use super::iwe::{evaluate, Canvas, Events, SplatTable, Workspace};
 use super::newton::ascend;
 use super::votes::{vote, VoteScratch};
 use super::{MotionParams, Objective, SearchMethod, Splat};
-use crate::estimate::peak::{self, SubPixelFit};
 use crate::field::Status;
+use crate::peak::{self, SubPixelFit};
 
 /// Largest half-width, in steps, of the grid scanned at the top of the pyramid.
 const TOP_HALF: i64 = 2;

@@ -11,7 +11,7 @@
 //! instead of one IWE per candidate.
 
 use super::iwe::Events;
-use crate::estimate::peak::first_where;
+use crate::peak::first_where;
 use crate::simd::avx2_available;
 
 /// Events voting at most (≈ 5 800 pairs); beyond, the events are thinned evenly in time.
