@@ -11,7 +11,9 @@ mod progress;
 use clap::{Parser, Subcommand};
 use std::process::ExitCode;
 
-/// Event-based imaging velocimetry: read event-camera recordings, look at them, convert them.
+/// Event-based imaging velocimetry: measure fluid flows from event-camera recordings (velocity
+/// fields by sum of correlation, motion compensation or PIV), and read, look at, convert and
+/// simulate the recordings.
 ///
 /// Times and durations take units (10ms, 250us, 1.5s; a bare number is µs). Pixel
 /// coordinates are image coordinates: x to the right, y down, origin top-left.

@@ -131,7 +131,7 @@ fn image_pair_gives_displacements_in_px() {
 
 /// The real wall flow through frames rebuilt from its events (three pairs of 1 ms count
 /// frames 2 ms apart, 64 → 40 px): the same median velocity as the event estimators report
-/// in the README, (1.47, 0.27) px/ms by sum of correlation.
+/// in docs/process.md, (1.47, 0.27) px/ms by sum of correlation.
 #[test]
 fn wall_flow_through_event_frames_matches_the_event_estimators() {
     let Some(file) = data("ebiv/wallflow_slice2.npz") else {

@@ -70,8 +70,7 @@ fn uniform_flow_of_2_px_per_ms_within_0_05_rms() {
 /// Sum of correlation: the summed peak of pixel-quantised events is about a pixel wide and
 /// locks onto whole-pixel displacements; smoothing it near the maximum before the fit
 /// (default σ = 1 px) must lower the error of a flow displaced by half pixels over τ
-/// (6.5 px, 2.5 px). Measured: RMS 0.027 px/ms without, 0.023 with (0.028 and 0.022 on the
-/// linearly sampled recording before the twentieth session).
+/// (6.5 px, 2.5 px). Measured: RMS 0.027 px/ms without, 0.023 with (printed).
 #[test]
 fn peak_smoothing_reduces_peak_locking_of_half_pixel_displacements() {
     let flow = "type = \"uniform\"\nu = 2.1666667\nv = 0.8333333";
@@ -104,9 +103,7 @@ fn peak_smoothing_reduces_peak_locking_of_half_pixel_displacements() {
 /// predictor the last pass gives RMS ≈ 0.03 px/ms
 /// here, about what both estimators give for a uniform flow oblique to the pixel grid
 /// (0.02–0.03 px/ms), so the bound is the DVR measured when it was set (115 corrsum with the
-/// peak smoothing, 119 motion) less a margin. Measured now: 106 corrsum, 123 motion (116 and
-/// 123 on the linearly sampled recording before the twentieth session, whose particles
-/// differ; the linear sampling at 0.05 px gives motion one wrong vector and DVR 100).
+/// peak smoothing, 119 motion) less a margin. Measured: 106 corrsum, 123 motion (printed).
 /// The truth is compared at each vector's window centre and field time (`assess`).
 #[test]
 fn turntable_event_deformation_removes_gradient_error() {
@@ -140,8 +137,8 @@ fn turntable_event_deformation_removes_gradient_error() {
 /// at their sub-pixel positions (instead of rounded to pixels) and the predictor's
 /// displacement removed exactly. On the turntable of the previous test the rounding of the
 /// deformed positions is most of the error: measured RMS 0.0298 → 0.0179 px/ms (DVR 106 →
-/// 177; 0.0273 → 0.0161 on the linearly sampled recording before the twentieth session); removing only the sub-pixel part of the displacement from the plane, with rounded
-/// positions, gave 0.030.
+/// 177); removing only the sub-pixel part of the displacement from the plane, with rounded
+/// positions, gives 0.030.
 #[test]
 fn turntable_subpixel_event_positions_raise_the_corrsum_dvr() {
     let flow = "type = \"solid_body\"\ncentre = [127.5, 127.5]\nomega = 0.02";
@@ -230,8 +227,6 @@ core_radius = 25.0"#;
 /// options cut the RMS by 30 %). With 32 px windows in the last pass (step 16), printed:
 /// 328 / 380 / 279 at τ = 8 ms: random error falls with the number of events per window.
 /// Motion compensation with its defaults, same passes: DVR 211 / 193 / 181 (printed).
-/// (The linearly sampled recordings before the twentieth session, other particles: 609 /
-/// 641 / 539, 413 / 430 / 294, 160 / 166 / 143; motion 205 / 190 / 189.)
 /// The first pass's search radius (21 px of a 64 px window) covers 2.6 px/ms at τ = 8 ms;
 /// faster windows are found from their neighbours' prediction in the second pass.
 #[test]
@@ -263,7 +258,7 @@ fn turntable_dvr_above_350_with_subpixel_events_and_counts() {
         println!("turntable seed {seed}, corrsum 64→40 px, τ = 3 ms: {paper}");
         println!("turntable seed {seed}, same, sub-pixel, counts: {short}");
         println!("turntable seed {seed}, same, τ = 8 ms: {long}");
-        // Printed, not bounded: the README's row for 32 px windows in the last pass.
+        // Printed, not bounded: the row for 32 px windows in the last pass (docs/process.md).
         let e = estimator(8_000, true);
         let fine = errors(
             &process(&e, &sim, &events, &[(64, 32), (32, 16)], &FIELD_TIMES),

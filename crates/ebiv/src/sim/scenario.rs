@@ -124,7 +124,7 @@ impl Sampling {
     /// 0.75 px and 600 µs where the light is continuous without flicker (about as accurate as
     /// the linear at 0.25 px and 200 µs: mean |Δt| to a fine sampling 0.79–1.04 of the
     /// linear's on the five examples, 1.01 pooled over eight seeds of a test scene, for
-    /// 0.6–0.88 of its CPU time; docs/performance.md, nineteenth and twentieth sessions),
+    /// 0.6–0.88 of its CPU time; docs/simulate.md),
     /// otherwise the linear at 0.25 px and 200 µs. The step's defaults follow the interpolation, also where it is
     /// given.
     pub fn resolve(&self, light: &IlluminationParams) -> ResolvedSampling {

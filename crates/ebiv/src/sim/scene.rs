@@ -512,14 +512,14 @@ impl Spot {
 /// The smallest particle contribution to a pixel that is rendered, as a fraction of the
 /// background irradiance: 1e-3, a change of 1e-3 ln units, 1/200 of a 0.2 threshold.
 ///
-/// Measured against 1e-4 (the floor until 2026-12-01) on 100 ms of the `paper-rate` example:
+/// Measured against a floor of 1e-4 on 100 ms of the `paper-rate` example:
 /// 98 % of the events are identical to the µs (mean |Δt| 0.16 µs), the event count changes
 /// by 7 in 2.1 M, and both floors are equally far from a reference sampled five times finer
 /// (0.05 px per step: median |Δt| 3 µs, mean 12.4 µs, the error of the 0.25 px time
 /// sampling), so the cut is about two orders of magnitude below the model's sampling error.
-/// The simulator runs 9–11 % faster (fewer pixels per particle image: for a 2.5 px particle
-/// of peak 5, the disc above the floor shrinks from a radius of about 2.9 px to 2.6 px).
-/// docs/performance.md has the comparison.
+/// The simulator runs 9–11 % faster than with 1e-4 (fewer pixels per particle image: for a
+/// 2.5 px particle of peak 5, the disc above the floor shrinks from a radius of about 2.9 px
+/// to 2.6 px).
 pub const IMAGE_FLOOR: f64 = 1e-3;
 
 /// Fraction of a unit Gaussian line spread (scale `s`) falling on each pixel `lo..=hi` around

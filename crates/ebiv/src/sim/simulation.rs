@@ -51,7 +51,7 @@ pub struct Simulation {
 /// [`super::scenario::Sampling::resolve`]).
 ///
 /// Measured on 50 ms of the `paper-rate` example against a run sampled at 0.025 px per step
-/// (docs/performance.md, nineteenth session): `Linear` at 0.25 px per step puts the events a
+/// (docs/simulate.md): `Linear` at 0.25 px per step puts the events a
 /// median 3 µs (mean 17 µs, 30 % beyond 5 µs) from the reference's with 0.8 % of the events
 /// unpaired; `Cubic` at 0.25 px a median 0 µs (mean 3.1 µs, 3 % beyond 5 µs, 0.1 % unpaired)
 /// for 1.6 times the CPU time, at 0.5 px a median 1 µs (mean 7.9 µs, 5 % beyond 5 µs, 0.3 %

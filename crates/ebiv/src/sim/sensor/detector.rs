@@ -149,7 +149,7 @@ pub(super) struct StepContext<'a> {
 /// ([`StepContext::hermite_step`]). Each ramp's own timing error is that of a linear
 /// interpolation over a quarter of the step; measured on 50 ms of the `paper-rate` example
 /// against 0.025 px per step, at 0.5 px per step four ramps put the events a mean 7.9 µs from
-/// the reference's where two put them 18.9 µs (docs/performance.md, nineteenth session).
+/// the reference's where two put them 18.9 µs.
 const CUBIC_RAMPS: usize = 4;
 
 /// Safety net: the most level crossings one pixel may process in one step.

@@ -1,0 +1,21 @@
+"""Plot the first field of an `ebiv process ... -o flow.csv` output as a vector map.
+
+    python examples/plot_field.py flow.csv flow.png     (needs numpy and matplotlib)
+"""
+import sys
+import numpy as np
+import matplotlib
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt
+
+source = sys.argv[1] if len(sys.argv) > 1 else "flow.csv"
+target = sys.argv[2] if len(sys.argv) > 2 else "flow.png"
+f = np.genfromtxt(source, delimiter=",", names=True, comments="#")
+# The first field's valid vectors (invalid ones are NaN).
+ok = (f["status"] == 0) & (f["t_us"] == f["t_us"][0])
+plt.quiver(f["x"][ok], f["y"][ok], f["u"][ok], f["v"][ok], np.hypot(f["u"], f["v"])[ok])
+plt.gca().invert_yaxis()                    # image coordinates: y down
+plt.gca().set_aspect("equal")
+plt.colorbar(label="|v| (px/ms)")
+plt.savefig(target, dpi=150)
+print(f"wrote {target}: {ok.sum()} valid vectors")
