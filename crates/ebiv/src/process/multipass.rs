@@ -105,16 +105,14 @@ pub fn run_passes(
     let mut previous: Option<VectorField> = None;
     let mut reports = Vec::with_capacity(grids.len());
     let mut iterations = 0;
-    let mut change = f64::NAN;
     for k in 0..evaluations {
         let grid = &grids[k.min(last)];
         let mut field = evaluator.evaluate(grid, predictor.as_ref());
         let mut validation = validate::validate(&mut field, settings.validation);
         iterations += 1;
-        if let Some(p) = &previous {
-            change = mean_change(p, &field).unwrap_or(f64::NAN);
-        }
-        let converged = previous.is_some() && change < settings.repeat_tolerance;
+        // Only repetitions of the last pass have a previous field to compare with.
+        let change = previous.as_ref().and_then(|p| mean_change(p, &field));
+        let converged = change.is_some_and(|c| c < settings.repeat_tolerance);
         let is_final = k + 1 == evaluations || converged;
         if k < last || is_final {
             // The repetitions of the last pass share one report, written when they end.
@@ -122,7 +120,7 @@ pub fn run_passes(
                 window: grid.window,
                 vectors: grid.len(),
                 iterations,
-                last_change: if iterations > 1 { change } else { f64::NAN },
+                last_change: change.unwrap_or(f64::NAN),
                 valid_share: field.valid_share(),
             });
             iterations = 0;
@@ -169,4 +167,85 @@ pub fn mean_change(a: &VectorField, b: &VectorField) -> Option<f64> {
         }
     }
     (n > 0).then(|| sum / n as f64)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::event::Geometry;
+    use crate::grid::GridSpec;
+    use std::cell::RefCell;
+
+    /// Every window gets `values[k]` at the k-th evaluation; the grids seen are recorded.
+    struct Scripted {
+        values: Vec<f32>,
+        seen: RefCell<Vec<u32>>,
+    }
+
+    impl PassEvaluator for Scripted {
+        fn evaluate(&self, grid: &Grid, _predictor: Option<&VectorField>) -> VectorField {
+            let mut seen = self.seen.borrow_mut();
+            let value = self.values[seen.len()];
+            seen.push(grid.window[0]);
+            let mut field = VectorField::new(grid.x_centres(), grid.y_centres());
+            field.u.fill(value);
+            field.v.fill(0.0);
+            field.status.fill(crate::field::Status::VALID);
+            field
+        }
+
+        fn prepare_predictor(&self, _field: &mut VectorField) {}
+    }
+
+    fn grids(windows: &[u32]) -> Vec<Grid> {
+        let g = Geometry::new(128, 128);
+        windows
+            .iter()
+            .map(|&w| Grid::new(&GridSpec::square(w, w / 2), g).unwrap())
+            .collect()
+    }
+
+    fn settings(validation: &ValidationParams, single: bool) -> MultiPass<'_> {
+        MultiPass {
+            validation,
+            last_pass_repeats: 3,
+            repeat_single_pass: single,
+            repeat_tolerance: 0.01,
+            secondary_peaks: false,
+            replace_final: false,
+        }
+    }
+
+    #[test]
+    fn the_last_pass_repeats_until_its_vectors_stop_changing() {
+        let validation = ValidationParams::default();
+        // Changes between the last pass's evaluations: 0.5, then 0.005 (converged).
+        let scripted = Scripted {
+            values: vec![1.0, 2.0, 2.5, 2.505, 9.0],
+            seen: RefCell::new(Vec::new()),
+        };
+        let out = run_passes(&scripted, &grids(&[64, 32]), &settings(&validation, false));
+        assert_eq!(*scripted.seen.borrow(), vec![64, 32, 32, 32]);
+        assert_eq!(out.field.u[0], 2.505);
+        assert_eq!(out.passes.len(), 2);
+        assert_eq!(out.passes[1].iterations, 3);
+        assert!((out.passes[1].last_change - 0.005).abs() < 1e-4);
+        assert!(out.passes[0].last_change.is_nan());
+    }
+
+    #[test]
+    fn a_single_pass_repeats_only_when_asked() {
+        let validation = ValidationParams::default();
+        let scripted = || Scripted {
+            values: vec![1.0, 2.0, 3.0, 4.0],
+            seen: RefCell::new(Vec::new()),
+        };
+        let once = scripted();
+        run_passes(&once, &grids(&[32]), &settings(&validation, false));
+        assert_eq!(once.seen.borrow().len(), 1);
+        let repeated = scripted();
+        let out = run_passes(&repeated, &grids(&[32]), &settings(&validation, true));
+        assert_eq!(repeated.seen.borrow().len(), 4, "1 + last_pass_repeats");
+        assert_eq!(out.passes[0].iterations, 4);
+    }
 }
