@@ -5,7 +5,7 @@
 
 use ebiv::estimate::corrsum::SumOfCorrelation;
 use ebiv::estimate::Estimator;
-use ebiv::process::{plan_fields, process_recording};
+use ebiv::process::process_recording;
 use ebiv::settings::ProcessSettings;
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
@@ -21,8 +21,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let run = settings.resolve()?;
     let estimator = SumOfCorrelation::new(run.corrsum)?;
     let options = ebiv::io::ReadOptions::default();
-    let extent = estimator.time_extent_us();
-    let mut plan = plan_fields(input.as_ref(), &options, None, false, extent, run.slab_us())?;
+    let mut plan = run.plan_fields(&options, estimator.time_extent_us(), run.slab_us())?;
     let (series, summary) = process_recording(
         &mut plan.reader,
         plan.geometry,
