@@ -90,15 +90,13 @@ fn parse_scale(s: &str) -> Result<Scale, String> {
     }
 }
 
-/// Default exposure, µs.
-const DEFAULT_EXPOSURE_US: i64 = 1000;
 /// Most frames one run writes.
 const MAX_FRAMES: i64 = 1_000_000;
 
 pub fn run(args: &FramesArgs) -> Result<(), ebiv::Error> {
     let mut spec = FrameSpec {
         kind: args.kind,
-        exposure_us: args.exposure.unwrap_or(DEFAULT_EXPOSURE_US),
+        exposure_us: args.exposure.unwrap_or(FrameSpec::default().exposure_us),
         polarity: args.polarity,
         splat_sigma: args.splat,
     };

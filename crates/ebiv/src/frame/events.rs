@@ -71,6 +71,8 @@ pub struct FrameSpec {
     pub splat_sigma: f64,
 }
 
+/// The defaults of `ebiv frames`: count frames of 1 ms. (`ebiv process --method piv` has its
+/// own, [`crate::settings::ProcessSettings::exposure`].)
 impl Default for FrameSpec {
     fn default() -> Self {
         FrameSpec {
