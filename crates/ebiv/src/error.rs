@@ -71,6 +71,16 @@ pub enum Error {
         message: String,
     },
 
+    /// The input holds nothing for the request: no events in the selected time or polarity.
+    /// Reported instead of writing an empty result.
+    #[error("{context}: {message}")]
+    Empty {
+        /// The input concerned.
+        context: String,
+        /// What was empty, and what to check.
+        message: String,
+    },
+
     /// Writing an output failed for a reason other than I/O.
     #[error("cannot write {what}: {message}")]
     Write {
@@ -102,6 +112,14 @@ impl Error {
     /// An unsupported-content error.
     pub fn unsupported(context: impl Into<String>, message: impl Into<String>) -> Self {
         Error::Unsupported {
+            context: context.into(),
+            message: message.into(),
+        }
+    }
+
+    /// An empty-result error: `context` holds nothing for the request.
+    pub fn empty(context: impl Into<String>, message: impl Into<String>) -> Self {
+        Error::Empty {
             context: context.into(),
             message: message.into(),
         }

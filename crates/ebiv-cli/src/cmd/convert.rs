@@ -18,7 +18,7 @@ pub struct ConvertArgs {
     pub output: PathBuf,
     /// Keep only START:END (e.g. `10ms:20ms`, either side may be empty), measured from the
     /// first event of the recording (or in camera time with --absolute-time).
-    #[arg(long, value_name = "START:END", value_parser = ebiv::units::parse_range)]
+    #[arg(long, visible_alias = "time", value_name = "START:END", value_parser = ebiv::units::parse_range)]
     pub time_range: Option<(Option<i64>, Option<i64>)>,
     /// Read --time-range as camera time stamps in µs rather than from the first event.
     #[arg(long)]
@@ -59,6 +59,7 @@ pub fn run(args: &ConvertArgs) -> Result<(), ebiv::Error> {
         Format::Evt3 => args.output_encoding.format(),
         other => other,
     };
+    super::check_output_path(&args.output, &[])?;
     let origin = if args.absolute_time {
         0
     } else {
@@ -108,6 +109,13 @@ pub fn run(args: &ConvertArgs) -> Result<(), ebiv::Error> {
         }
     }
     crate::interrupt::check(&args.output)?;
+    if written == 0 {
+        // (The writer, dropped unfinished, removes its file.)
+        return Err(ebiv::Error::empty(
+            args.input.display().to_string(),
+            "no event passes the selection (--time-range, --roi, --polarity), so nothing is written; `ebiv info` shows the recording's span, size and polarities",
+        ));
+    }
     writer.finish()?;
     drop(catch);
     bar.finish_and_clear();

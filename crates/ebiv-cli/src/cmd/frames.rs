@@ -115,7 +115,14 @@ pub fn run(args: &FramesArgs) -> Result<(), ebiv::Error> {
         &options,
         args.time.unwrap_or((None, None)),
         args.absolute_time,
+        args.polarity,
     )?;
+    if let Some(requested) = extent.requested_end_us {
+        eprintln!(
+            "note: the recording ends {} before the end of --time; frames stop at its last event",
+            format_us(requested - extent.end_us)
+        );
+    }
     if extent.geometry_from_events {
         eprintln!(
             "note: the file does not state the sensor size; frames are {} px, the largest coordinates seen (set it with --geometry)",
@@ -192,12 +199,17 @@ pub fn run(args: &FramesArgs) -> Result<(), ebiv::Error> {
         },
         ..spec
     };
-    let summary = stream_frames(
+    // Ctrl-C stops after the frame being written (every frame on disk is whole), and
+    // frames.csv then lists the frames that were written.
+    let catch = crate::interrupt::catch();
+    let mut written = 0usize;
+    let streamed = stream_frames(
         &mut reader,
         geometry,
         &build,
         &starts,
         |record, mut frame| {
+            crate::interrupt::check(&args.output)?;
             if args.despeckle {
                 cleared += despeckle(&mut frame);
                 splat(&mut frame, spec.splat_sigma);
@@ -209,10 +221,27 @@ pub fn run(args: &FramesArgs) -> Result<(), ebiv::Error> {
                 "{},{},{},{}",
                 record.index, record.start_us, record.exposure_us, record.events
             );
+            written += 1;
             bar.inc(1);
             Ok(())
         },
-    )?;
+    );
+    let summary = match streamed {
+        Ok(summary) => summary,
+        Err(e) => {
+            bar.finish_and_clear();
+            if written > 0 {
+                write_replacing(&args.output.join("frames.csv"), csv.as_bytes())?;
+                eprintln!(
+                    "stopped after {written} of {} frames: the frames listed in {} are complete",
+                    starts.len(),
+                    args.output.join("frames.csv").display()
+                );
+            }
+            return Err(e);
+        }
+    };
+    drop(catch);
     bar.finish_and_clear();
     let csv_path = args.output.join("frames.csv");
     write_replacing(&csv_path, csv.as_bytes())?;

@@ -9,6 +9,31 @@ use super::{FormatReader, Metadata, ReadOptions, ReadSeek};
 use crate::error::{Error, Result};
 use std::io::{Seek, SeekFrom};
 
+/// Why a file without a `% ` header is not read as RAW: it is empty, it is text, or it is
+/// binary without a header (then an EVT stream can still be read with an explicit encoding).
+fn not_raw(source: &mut Box<dyn ReadSeek>, context: &str) -> Result<Error> {
+    use std::io::Read;
+    source.seek(SeekFrom::Start(0))?;
+    let mut start = Vec::with_capacity(256);
+    source.take(256).read_to_end(&mut start)?;
+    let message = if start.is_empty() {
+        "the file is empty".to_string()
+    } else if start
+        .iter()
+        .all(|&b| b.is_ascii_graphic() || b.is_ascii_whitespace())
+    {
+        let line = String::from_utf8_lossy(&start);
+        let line = line.lines().next().unwrap_or_default();
+        format!(
+            "this is a text file, not a Prophesee RAW recording (which starts with `% ` header lines); it begins `{}`",
+            line.chars().take(60).collect::<String>()
+        )
+    } else {
+        "no `% ` header, as Prophesee RAW files have; if this is a headerless EVT stream, pass --raw-encoding evt2|evt21|evt3".to_string()
+    };
+    Ok(Error::unsupported(context, message))
+}
+
 /// Open a RAW file. `forced` overrides the header's encoding; `options.raw_encoding` is the
 /// fallback when the header does not state one.
 pub(crate) fn open(
@@ -18,6 +43,9 @@ pub(crate) fn open(
     options: &ReadOptions,
 ) -> Result<Box<dyn FormatReader>> {
     let header = PropheseeHeader::read(&mut source, &context)?;
+    if header.length == 0 && forced.is_none() && options.raw_encoding.is_none() {
+        return Err(not_raw(&mut source, &context)?);
+    }
     source.seek(SeekFrom::Start(header.length))?;
     let encoding = match forced {
         Some(e) => e,

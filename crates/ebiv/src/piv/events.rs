@@ -199,6 +199,13 @@ pub fn piv_events<S: BatchSource>(
             .map(|&s| build_frame(events, geometry, s, &spec))
             .collect();
         let pairs: Vec<(&Frame, &Frame)> = frames.windows(2).map(|w| (&w[0], &w[1])).collect();
+        let polarity = params.frames.polarity;
+        let empty = !events
+            .t
+            .iter()
+            .zip(&events.p)
+            .any(|(&t, &p)| t >= start && t < end && polarity.accepts(p));
+        summary.empty_fields += usize::from(empty);
         let dt_ms = plan.dt_us / 1000.0;
         let out = piv_ensemble(&pairs, &params.piv.over_interval(dt_ms))?;
         let mut field = out.field;

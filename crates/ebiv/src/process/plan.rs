@@ -4,7 +4,7 @@
 use super::stream::{scan_extent, RecordingExtent};
 use super::times::{FieldTimes, TimeSteps};
 use crate::error::{Error, Result};
-use crate::event::{EventBuffer, Geometry};
+use crate::event::{EventBuffer, Geometry, PolaritySelection};
 use crate::io::{EventReader, ReadOptions};
 use std::path::Path;
 
@@ -49,9 +49,10 @@ pub fn plan_fields(
 ) -> Result<PlannedFields> {
     let reader = crate::io::open(path, options)?;
     let header_geometry = reader.metadata().geometry;
-    let no_events = || Error::parameter("input", format!("{} holds no events", path.display()));
+    let no_events = || Error::empty(path.display().to_string(), "the file holds no events");
     let (start, end) = (time.and_then(|t| t.start), time.and_then(|t| t.end));
-    let extent = if header_geometry.is_none() || start.is_none() || end.is_none() {
+    let scanned = header_geometry.is_none() || start.is_none() || end.is_none();
+    let extent = if scanned {
         let mut scan = crate::io::open(path, options)?;
         scan_extent(&mut scan)?.ok_or_else(no_events)?
     } else {
@@ -69,6 +70,19 @@ pub fn plan_fields(
             events: 0,
         }
     };
+    let too_short = || {
+        Error::empty(
+            path.display().to_string(),
+            format!(
+                "the recording ({}) is shorter than the time one field needs ({}: the slab, and for corrsum the delay tau); use a shorter --slab (piv: --frame-step, --exposure, --pairs)",
+                crate::units::format_us(extent.last_us + 1 - extent.first_us),
+                crate::units::format_us(before + after)
+            ),
+        )
+    };
+    if scanned && before.saturating_add(after) > extent.last_us + 1 - extent.first_us {
+        return Err(too_short());
+    }
     let geometry = header_geometry
         .unwrap_or_else(|| Geometry::new(extent.max_x as u32 + 1, extent.max_y as u32 + 1));
     let origin = if absolute_time {
@@ -80,22 +94,17 @@ pub fn plan_fields(
     let fitting = TimeSteps::fitting(extent.first_us, extent.last_us, before, after, step);
     let (start, end) = (start.map(|t| origin + t), end.map(|t| origin + t));
     let steps = match (start, end, fitting) {
-        (Some(a), Some(b), _) => TimeSteps { start: a, end: b, step },
+        (Some(a), Some(b), _) => TimeSteps {
+            start: a,
+            end: b,
+            step,
+        },
         (a, b, Some(f)) => TimeSteps {
             start: a.unwrap_or(f.start),
             end: b.unwrap_or(f.end),
             step,
         },
-        _ => {
-            return Err(Error::parameter(
-                "time",
-                format!(
-                    "the recording ({} ms) is shorter than one field needs ({} ms); use a shorter --slab (piv: --frame-step, --exposure, --pairs)",
-                    (extent.last_us - extent.first_us) / 1000,
-                    (before + after) / 1000
-                ),
-            ))
-        }
+        _ => return Err(too_short()),
     };
     Ok(PlannedFields {
         reader,
@@ -111,8 +120,14 @@ pub struct Coverage {
     pub first_event_us: i64,
     /// Start of the interval, µs.
     pub start_us: i64,
-    /// End of the interval (exclusive), µs.
+    /// End of the interval (exclusive), µs: the requested end, or one past the last event
+    /// when the recording ends earlier.
     pub end_us: i64,
+    /// The requested end, when the recording ends before it (the interval was shortened to
+    /// the recording).
+    pub requested_end_us: Option<i64>,
+    /// Events of the selected polarity in `[start_us, end_us)`.
+    pub events: u64,
     /// The sensor size.
     pub geometry: Geometry,
     /// Whether the size came from the largest coordinates seen, the file not stating it.
@@ -120,37 +135,90 @@ pub struct Coverage {
 }
 
 /// The interval `[start, end)` of `path` that `range` selects (relative to the first event
-/// unless `absolute_time`; a missing end is the last event), and the sensor size. The whole
-/// file is read only when the end or the size is not known otherwise.
+/// unless `absolute_time`; a missing end, or one beyond the recording, is one past the last
+/// event), the sensor size, and how many events of `polarity` it holds. The file is read up
+/// to the end of the interval, and to its own end only when the interval runs to the end or
+/// the file does not state its sensor size.
+///
+/// An interval that starts after the recording, or that holds no event of `polarity`, is an
+/// error ([`Error::Empty`]) naming the recording's span: whatever the caller would write
+/// from it would be blank.
 pub fn coverage(
     path: &Path,
     options: &ReadOptions,
     range: (Option<i64>, Option<i64>),
     absolute_time: bool,
+    polarity: PolaritySelection,
 ) -> Result<Coverage> {
-    let first_event_us = first_event_time(path, options)?
-        .ok_or_else(|| Error::parameter("input", format!("{} holds no events", path.display())))?;
-    let origin = if absolute_time { 0 } else { first_event_us };
-    let start_us = range.0.map_or(first_event_us, |s| s + origin);
-    let mut end_us = range.1.map(|e| e + origin);
-    let mut geometry = crate::io::open(path, options)?.metadata().geometry;
+    let mut reader = crate::io::open(path, options)?;
+    let geometry = reader.metadata().geometry;
     let geometry_from_events = geometry.is_none();
-    if end_us.is_none() || geometry.is_none() {
-        let mut scan = crate::io::open(path, options)?;
-        if let Some(extent) = scan_extent(&mut scan)? {
-            end_us = end_us.or(Some(extent.last_us.saturating_add(1)));
-            geometry = geometry.or(Some(Geometry::new(
-                extent.max_x as u32 + 1,
-                extent.max_y as u32 + 1,
-            )));
+    let mut batch = EventBuffer::new();
+    let (mut first, mut last, mut max_x, mut max_y) = (None::<i64>, i64::MIN, 0u16, 0u16);
+    let (mut start_us, mut end_us, mut events) = (None::<i64>, None::<i64>, 0u64);
+    while reader.read_batch(&mut batch)? {
+        let Some(&t_first) = batch.t.first() else {
+            continue;
+        };
+        let first = *first.get_or_insert(t_first);
+        let origin = if absolute_time { 0 } else { first };
+        let start = *start_us.get_or_insert(range.0.map_or(first, |s| s.saturating_add(origin)));
+        let end = *end_us.get_or_insert(range.1.map_or(i64::MAX, |e| e.saturating_add(origin)));
+        for i in 0..batch.len() {
+            let t = batch.t[i];
+            last = last.max(t);
+            max_x = max_x.max(batch.x[i]);
+            max_y = max_y.max(batch.y[i]);
+            events += u64::from(t >= start && t < end && polarity.accepts(batch.p[i]));
+        }
+        if geometry.is_some() && last >= end {
+            break; // the recording reaches the end of the interval
         }
     }
-    let end_us = end_us.unwrap_or(start_us);
-    if end_us <= start_us {
+    let no_events = || Error::empty(path.display().to_string(), "the file holds no events");
+    let first_event_us = first.ok_or_else(no_events)?;
+    let (start_us, requested) = (
+        start_us.ok_or_else(no_events)?,
+        end_us.ok_or_else(no_events)?,
+    );
+    let geometry = geometry.unwrap_or_else(|| Geometry::new(max_x as u32 + 1, max_y as u32 + 1));
+    let recording_end = last.saturating_add(1);
+    let end_us = requested.min(recording_end);
+    let span = || {
+        let origin = if absolute_time { 0 } else { first_event_us };
+        format!(
+            "the recording spans {} to {}{}",
+            crate::units::format_us(first_event_us - origin),
+            crate::units::format_us(recording_end - origin),
+            if absolute_time {
+                " in camera time"
+            } else {
+                " from its first event"
+            }
+        )
+    };
+    if requested <= start_us {
         return Err(Error::parameter(
             "time",
             format!(
-                "nothing to do: the interval ends ({end_us} µs) before it starts ({start_us} µs)"
+                "nothing to do: the interval ends before it starts ({})",
+                span()
+            ),
+        ));
+    }
+    if start_us >= recording_end {
+        return Err(Error::empty(
+            path.display().to_string(),
+            format!("--time starts after the last event: {}", span()),
+        ));
+    }
+    if events == 0 {
+        return Err(Error::empty(
+            path.display().to_string(),
+            format!(
+                "no event of polarity `{}` in the interval ({}); check --time and --polarity",
+                format!("{polarity:?}").to_lowercase(),
+                span()
             ),
         ));
     }
@@ -158,7 +226,9 @@ pub fn coverage(
         first_event_us,
         start_us,
         end_us,
-        geometry: geometry.unwrap_or(Geometry::new(1, 1)),
+        requested_end_us: (end_us < requested && range.1.is_some()).then_some(requested),
+        events,
+        geometry,
         geometry_from_events,
     })
 }

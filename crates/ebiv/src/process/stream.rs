@@ -114,6 +114,9 @@ pub struct RunSummary {
     pub flagged: usize,
     /// Median-test outliers made valid by a secondary peak, summed over fields.
     pub secondary_peaks: usize,
+    /// Fields whose time interval held no event of the selected polarity (all their vectors
+    /// are gaps): a `--time` beyond the recording, or a polarity the camera did not record.
+    pub empty_fields: usize,
 }
 
 /// What the caller sees after each field: for progress bars and figures.
@@ -249,6 +252,7 @@ pub fn process_recording<E: Estimator, S: BatchSource + Send>(
         );
         summary.events_read = sliding.events_read;
         summary.fields += 1;
+        summary.empty_fields += usize::from(current.is_empty());
         summary.vectors += result.field.len();
         summary.valid += result.field.status.iter().filter(|s| s.is_valid()).count();
         summary.flagged += result.validation.valid_before - result.validation.valid_after;

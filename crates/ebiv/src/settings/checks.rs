@@ -51,7 +51,11 @@ pub fn positive_duration(v: &impl Each<Duration>) -> Check {
 pub fn positive_pixels(v: &Option<PixelList>) -> Check {
     match v {
         Some(list) if list.0.contains(&0) => {
-            Err(format!("{:?}: every size must be at least 1 px", list.0))
+            let text = list.0.iter().map(u32::to_string).collect::<Vec<_>>();
+            Err(format!(
+                "`{}`: 0 px is not a size; every value must be at least 1 px",
+                text.join(",")
+            ))
         }
         _ => Ok(()),
     }

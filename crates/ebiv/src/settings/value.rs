@@ -184,8 +184,14 @@ pub struct PixelList(pub Vec<u32>);
 impl SettingValue for PixelList {
     fn from_text(text: &str) -> Result<Self, String> {
         let values: Result<Vec<u32>, _> = text.split(',').map(|s| s.trim().parse()).collect();
+        let negative = text
+            .split(',')
+            .any(|s| s.trim().parse::<i64>().is_ok_and(|v| v < 0));
         match values {
             Ok(v) if !v.is_empty() => Ok(PixelList(v)),
+            _ if negative => Err(format!(
+                "`{text}`: sizes in px cannot be negative; give positive pixel counts (e.g. 64,40)"
+            )),
             _ => Err(format!(
                 "`{text}` is not a pixel count or a comma-separated list of them (e.g. 64,40)"
             )),
@@ -197,6 +203,7 @@ impl SettingValue for PixelList {
             Value::Array(items) if !items.is_empty() => items
                 .iter()
                 .map(|v| match v {
+                    Value::Integer(i) if *i < 0 => Err(format!("{i} (negative)")),
                     Value::Integer(i) => u32::try_from(*i).map_err(|_| format!("{i} px")),
                     other => Err(format!("`{other}`")),
                 })
@@ -204,6 +211,9 @@ impl SettingValue for PixelList {
                 .map(PixelList)
                 .map_err(|e| format!("{e} is not a pixel count")),
             Value::Array(_) => Err("the list is empty".into()),
+            Value::Integer(i) if *i < 0 => Err(format!(
+                "{i}: sizes in px cannot be negative; give a positive pixel count"
+            )),
             Value::Integer(i) => u32::try_from(*i)
                 .map(|v| PixelList(vec![v]))
                 .map_err(|_| format!("{i} is not a pixel count")),

@@ -21,9 +21,10 @@ pub struct ProcessBenchArgs {
     /// (20.1 M events/s over one second, the paper's rate).
     #[arg(long)]
     pub density: Option<f64>,
-    /// Window size and grid step in px.
+    /// Window size in px (square windows, one pass).
     #[arg(long, default_value_t = 40)]
     pub window: u32,
+    /// Grid step in px: the distance between neighbouring windows' centres.
     #[arg(long, default_value_t = 20)]
     pub step: u32,
     /// Only this method: corrsum or motion (default both).

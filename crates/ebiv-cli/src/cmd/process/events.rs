@@ -42,6 +42,7 @@ pub fn run_estimator<E: Estimator>(
             progress.on_field(d)
         })?;
     let frames = progress.finish()?;
+    super::check_run_found_events(run, options, &summary, &times, params.polarity)?;
     finish_recording_run(run, &mut series, &summary, started, &reader.report())?;
     if let Some(dir) = &run.png {
         write_series_figures(&series, dir, run, frames)?;

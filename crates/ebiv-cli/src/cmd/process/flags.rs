@@ -37,7 +37,7 @@ fn argument(s: &'static Setting) -> Arg {
     arg = if s.positional {
         arg.index(1).value_name(s.value_name)
     } else {
-        arg.long(id).aliases(s.aliases.iter().copied())
+        arg.long(id).visible_aliases(s.aliases.iter().copied())
     };
     if let Some(c) = s.short {
         arg = arg.short(c);

@@ -45,6 +45,7 @@ pub fn run(args: &ProcessArgs) -> Result<(), ebiv::Error> {
     }
     args.settings.apply(&mut settings)?;
     let run = settings.resolve()?;
+    super::check_output_path(&run.output, &ebiv::export::FIELD_EXTENSIONS)?;
     let options = args.input.read_options()?;
     match (run.method, &run.source) {
         (Method::CorrSum, _) => events::run_estimator(
@@ -60,6 +61,57 @@ pub fn run(args: &ProcessArgs) -> Result<(), ebiv::Error> {
         (Method::Piv, Source::Images(_)) => piv::run_images(&run),
         (Method::Piv | Method::Pulsed, _) => piv::run_events(&run, &options),
     }
+}
+
+/// After a run over a recording, before anything is written: an error when no field held an
+/// event of the selected polarity (a `--time` beyond the recording, or a polarity the camera
+/// did not record), a warning when some fields were empty or no vector is valid.
+fn check_run_found_events(
+    run: &ebiv::settings::Resolved,
+    options: &ebiv::io::ReadOptions,
+    summary: &ebiv::process::RunSummary,
+    times: &[i64],
+    polarity: ebiv::PolaritySelection,
+) -> Result<(), ebiv::Error> {
+    let input = run.input_path();
+    let polarity = match polarity {
+        ebiv::PolaritySelection::Both => "either polarity".to_string(),
+        p => format!("{} polarity", format!("{p:?}").to_lowercase()),
+    };
+    if summary.fields > 0 && summary.empty_fields == summary.fields {
+        let origin = if run.absolute_time {
+            0
+        } else {
+            ebiv::process::first_event_time(&input, options)?.unwrap_or(0)
+        };
+        let ms = |t: i64| (t - origin) as f64 / 1000.0;
+        let when = if run.absolute_time {
+            "camera time"
+        } else {
+            "after the first event"
+        };
+        return Err(ebiv::Error::empty(
+            input.display().to_string(),
+            format!(
+                "no event of {polarity} in any field's time interval (fields at {:.3} to {:.3} ms {when}), so no field file is written. `ebiv info {}` shows the recording's span and polarities: check --time and --polarity",
+                ms(times[0]),
+                ms(times[times.len() - 1]),
+                input.display()
+            ),
+        ));
+    }
+    if summary.empty_fields > 0 {
+        eprintln!(
+            "warning: {} of {} field(s) had no event of {polarity} in their time interval; their vectors are gaps (check --time against the recording's span from `ebiv info`)",
+            summary.empty_fields, summary.fields
+        );
+    }
+    if summary.vectors > 0 && summary.valid == 0 {
+        eprintln!(
+            "warning: no vector is valid. Look at the events (`ebiv render`) and see Troubleshooting in the README: too few particles per window (larger --window), a --slab too short for the particles to move a pixel or so long they leave the window, or --max-velocity too low"
+        );
+    }
+    Ok(())
 }
 
 /// Write a commented configuration file for `ebiv process --config`.

@@ -226,6 +226,7 @@ pub fn run_events(run: &Resolved, options: &ReadOptions) -> Result<(), Error> {
         progress.on_field(d)
     })?;
     let figures = progress.finish()?;
+    super::check_run_found_events(run, options, &summary, &times, run.frames.polarity)?;
     finish_recording_run(run, &mut series, &summary, started, &reader.report())?;
     if let Some(dir) = &run.png {
         write_series_figures(&series, dir, run, figures)?;

@@ -104,7 +104,7 @@ impl AtomicFile {
         let mut name = target.file_name().unwrap_or_default().to_os_string();
         name.push(".partial");
         let temp = target.with_file_name(name);
-        let file = File::create(&temp).map_err(|e| Error::io(&temp, e))?;
+        let file = File::create(&temp).map_err(|e| Error::io(target, e))?;
         Ok(AtomicFile {
             target: target.to_path_buf(),
             temp,
