@@ -30,8 +30,33 @@ pub struct PlannedFields {
     pub reader: EventReader,
     /// The sensor size (from the header, else the largest coordinates seen).
     pub geometry: Geometry,
-    /// Field centre times, µs, ascending.
+    /// Field centre times, µs, ascending (camera time, as the recording stores it).
     pub times: Vec<i64>,
+    /// The origin of the run's relative times (`--time`): the first event's time stamp, or 0
+    /// with `absolute_time`.
+    pub origin_us: i64,
+}
+
+impl PlannedFields {
+    /// "3 field(s) at 10.000 ms to 20.000 ms after the first event (camera time 1310000 µs
+    /// to …)": the field times as `--time` counts them, and as the output files store them.
+    pub fn describe_times(&self) -> String {
+        let (first, last) = (self.times[0], self.times[self.times.len() - 1]);
+        let relative = |t: i64| crate::units::format_us(t - self.origin_us);
+        if self.origin_us == 0 {
+            format!(
+                "{} field(s) at camera times {first} to {last} µs",
+                self.times.len()
+            )
+        } else {
+            format!(
+                "{} field(s) from {} to {} after the first event (camera time {first} to {last} µs)",
+                self.times.len(),
+                relative(first),
+                relative(last)
+            )
+        }
+    }
 }
 
 /// Open `path` and resolve its field times: `time` (relative to the first event unless
@@ -110,6 +135,7 @@ pub fn plan_fields(
         reader,
         geometry,
         times: steps.times(MAX_FIELDS)?,
+        origin_us: origin,
     })
 }
 

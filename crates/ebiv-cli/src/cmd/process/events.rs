@@ -15,20 +15,20 @@ pub fn run_estimator<E: Estimator>(
     estimator: &E,
 ) -> Result<(), Error> {
     let input = run.input_path();
+    let planned = run.plan_fields(options, estimator.time_extent_us(), run.slab_us())?;
+    let described = planned.describe_times();
     let PlannedFields {
         mut reader,
         geometry: g,
         times,
-    } = run.plan_fields(options, estimator.time_extent_us(), run.slab_us())?;
+        ..
+    } = planned;
     let mut params = run.process.clone();
     params.mask = run.mask_for(g)?;
     params.grids(g)?; // report a window that does not fit before anything else
     println!(
-        "{}: {} field(s) from {} to {} µs, {} on {g}, passes {}",
+        "{}: {described}, {} on {g}, passes {}",
         input.display(),
-        times.len(),
-        times[0],
-        times[times.len() - 1],
         estimator.name(),
         describe_passes(&params.passes)
     );
@@ -42,7 +42,7 @@ pub fn run_estimator<E: Estimator>(
             progress.on_field(d)
         })?;
     let frames = progress.finish()?;
-    super::check_run_found_events(run, options, &summary, &times, params.polarity)?;
+    super::check_run_found_events(run, &summary, &described, params.polarity)?;
     finish_recording_run(run, &mut series, &summary, started, &reader.report())?;
     if let Some(dir) = &run.png {
         write_series_figures(&series, dir, run, frames)?;

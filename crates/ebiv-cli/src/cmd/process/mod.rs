@@ -68,9 +68,8 @@ pub fn run(args: &ProcessArgs) -> Result<(), ebiv::Error> {
 /// did not record), a warning when some fields were empty or no vector is valid.
 fn check_run_found_events(
     run: &ebiv::settings::Resolved,
-    options: &ebiv::io::ReadOptions,
     summary: &ebiv::process::RunSummary,
-    times: &[i64],
+    described_times: &str,
     polarity: ebiv::PolaritySelection,
 ) -> Result<(), ebiv::Error> {
     let input = run.input_path();
@@ -79,23 +78,10 @@ fn check_run_found_events(
         p => format!("{} polarity", format!("{p:?}").to_lowercase()),
     };
     if summary.fields > 0 && summary.empty_fields == summary.fields {
-        let origin = if run.absolute_time {
-            0
-        } else {
-            ebiv::process::first_event_time(&input, options)?.unwrap_or(0)
-        };
-        let ms = |t: i64| (t - origin) as f64 / 1000.0;
-        let when = if run.absolute_time {
-            "camera time"
-        } else {
-            "after the first event"
-        };
         return Err(ebiv::Error::empty(
             input.display().to_string(),
             format!(
-                "no event of {polarity} in any field's time interval (fields at {:.3} to {:.3} ms {when}), so no field file is written. `ebiv info {}` shows the recording's span and polarities: check --time and --polarity",
-                ms(times[0]),
-                ms(times[times.len() - 1]),
+                "no event of {polarity} in any field's time interval ({described_times}), so no field file is written. `ebiv info {}` shows the recording's span and polarities: check --time and --polarity",
                 input.display()
             ),
         ));

@@ -194,22 +194,22 @@ pub fn run_events(run: &Resolved, options: &ReadOptions) -> Result<(), Error> {
     params.check()?;
     let input = run.input_path();
     let (before, after) = params.time_extent_us();
+    let planned = run.plan_fields(options, (before, after), before + after)?;
+    let described = planned.describe_times();
     let PlannedFields {
         mut reader,
         geometry: g,
         times,
-    } = run.plan_fields(options, (before, after), before + after)?;
+        ..
+    } = planned;
     params.piv.mask = run.mask_for(g)?;
     for pass in &params.piv.passes {
         ebiv::grid::Grid::new(pass, g)?;
     }
     let plan = params.plan(times[0]);
     println!(
-        "{}: {} field(s) from {} to {} µs, PIV of {} {} frames ({} µs exposure, Δt {:.1} µs, {} pair(s) per field) on {g}, passes {}",
+        "{}: {described}, PIV of {} {} frames ({} µs exposure, Δt {:.1} µs, {} pair(s) per field) on {g}, passes {}",
         input.display(),
-        times.len(),
-        times[0],
-        times[times.len() - 1],
         run.frames.kind.name(),
         format!("{:?}", run.frames.polarity).to_lowercase(),
         plan.exposure_us,
@@ -226,7 +226,7 @@ pub fn run_events(run: &Resolved, options: &ReadOptions) -> Result<(), Error> {
         progress.on_field(d)
     })?;
     let figures = progress.finish()?;
-    super::check_run_found_events(run, options, &summary, &times, run.frames.polarity)?;
+    super::check_run_found_events(run, &summary, &described, run.frames.polarity)?;
     finish_recording_run(run, &mut series, &summary, started, &reader.report())?;
     if let Some(dir) = &run.png {
         write_series_figures(&series, dir, run, figures)?;
