@@ -56,6 +56,8 @@ fn convert_to_csv_then_raw_keeps_every_event() {
     let text = std::fs::read_to_string(&csv).unwrap();
     let mut lines = text.lines();
     assert_eq!(lines.next(), Some("t,x,y,p"));
+    // The sensor size travels with the events.
+    assert_eq!(lines.next(), Some("# geometry: 640x480"));
     let rows: Vec<Vec<i64>> = lines
         .map(|l| l.split(',').map(|f| f.parse().unwrap()).collect())
         .collect();
@@ -65,16 +67,13 @@ fn convert_to_csv_then_raw_keeps_every_event() {
         .iter()
         .all(|r| r[0] >= first_t + 10_000 && r[0] < first_t + 20_000 && r[3] == 1));
 
-    // The same cut through EVT 3.0 RAW and back gives the same rows.
+    // The same cut through EVT 3.0 RAW and back gives the same rows and sensor size, with no
+    // --geometry: the CSV states it.
     let raw = dir.path().join("cut.raw");
-    let out = ebiv(&[
-        "convert",
-        csv.to_str().unwrap(),
-        raw.to_str().unwrap(),
-        "--geometry",
-        "640x480",
-    ]);
+    let out = ebiv(&["convert", csv.to_str().unwrap(), raw.to_str().unwrap()]);
     assert!(out.status.success(), "{}", stderr(&out));
+    let info = ebiv(&["info", raw.to_str().unwrap()]);
+    assert!(stdout(&info).contains("640x480"), "{}", stdout(&info));
     let csv2 = dir.path().join("again.csv");
     let out = ebiv(&["convert", raw.to_str().unwrap(), csv2.to_str().unwrap()]);
     assert!(out.status.success(), "{}", stderr(&out));
