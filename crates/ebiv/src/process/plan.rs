@@ -32,6 +32,9 @@ pub struct PlannedFields {
     pub geometry: Geometry,
     /// Field centre times, µs, ascending.
     pub times: Vec<i64>,
+    /// The camera time, µs, that `time` counts from: the first event in file order, or 0
+    /// with `absolute_time` (for [`FieldSeries::time_origin_us`](crate::field::FieldSeries)).
+    pub time_origin_us: i64,
 }
 
 /// Open `path` and resolve its field times: `time` (relative to the first event unless
@@ -101,6 +104,7 @@ pub fn plan_fields(
         reader,
         geometry,
         times: steps.times(MAX_FIELDS)?,
+        time_origin_us: origin,
     })
 }
 

@@ -19,6 +19,7 @@ pub fn run_estimator<E: Estimator>(
         mut reader,
         geometry: g,
         times,
+        time_origin_us,
     } = run.plan_fields(options, estimator.time_extent_us(), run.slab_us())?;
     let mut params = run.process.clone();
     params.mask = run.mask_for(g)?;
@@ -42,6 +43,7 @@ pub fn run_estimator<E: Estimator>(
             progress.on_field(d)
         })?;
     let frames = progress.finish()?;
+    series.time_origin_us = Some(time_origin_us);
     finish_recording_run(run, &mut series, &summary, started, &reader.report())?;
     if let Some(dir) = &run.png {
         write_series_figures(&series, dir, run, frames)?;

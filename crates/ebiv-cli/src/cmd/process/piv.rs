@@ -198,6 +198,7 @@ pub fn run_events(run: &Resolved, options: &ReadOptions) -> Result<(), Error> {
         mut reader,
         geometry: g,
         times,
+        time_origin_us,
     } = run.plan_fields(options, (before, after), before + after)?;
     params.piv.mask = run.mask_for(g)?;
     for pass in &params.piv.passes {
@@ -226,6 +227,7 @@ pub fn run_events(run: &Resolved, options: &ReadOptions) -> Result<(), Error> {
         progress.on_field(d)
     })?;
     let figures = progress.finish()?;
+    series.time_origin_us = Some(time_origin_us);
     finish_recording_run(run, &mut series, &summary, started, &reader.report())?;
     if let Some(dir) = &run.png {
         write_series_figures(&series, dir, run, figures)?;
