@@ -11,9 +11,10 @@ import matplotlib.pyplot as plt
 source = sys.argv[1] if len(sys.argv) > 1 else "flow.csv"
 target = sys.argv[2] if len(sys.argv) > 2 else "flow.png"
 f = np.genfromtxt(source, delimiter=",", names=True, comments="#")
-# The first field's valid vectors (invalid ones are NaN).
+# The first field's valid vectors (invalid ones are NaN); column names carry the units.
 ok = (f["status"] == 0) & (f["t_us"] == f["t_us"][0])
-plt.quiver(f["x"][ok], f["y"][ok], f["u"][ok], f["v"][ok], np.hypot(f["u"], f["v"])[ok])
+x, y, u, v = (f[k][ok] for k in ("x_px", "y_px", "u_px_ms", "v_px_ms"))
+plt.quiver(x, y, u, v, np.hypot(u, v))
 plt.gca().invert_yaxis()                    # image coordinates: y down
 plt.gca().set_aspect("equal")
 plt.colorbar(label="|v| (px/ms)")

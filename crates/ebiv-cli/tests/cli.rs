@@ -56,6 +56,8 @@ fn convert_to_csv_then_raw_keeps_every_event() {
     let text = std::fs::read_to_string(&csv).unwrap();
     let mut lines = text.lines();
     assert_eq!(lines.next(), Some("t,x,y,p"));
+    // The sensor size travels with the events.
+    assert_eq!(lines.next(), Some("# geometry: 640x480"));
     let rows: Vec<Vec<i64>> = lines
         .map(|l| l.split(',').map(|f| f.parse().unwrap()).collect())
         .collect();
@@ -65,16 +67,13 @@ fn convert_to_csv_then_raw_keeps_every_event() {
         .iter()
         .all(|r| r[0] >= first_t + 10_000 && r[0] < first_t + 20_000 && r[3] == 1));
 
-    // The same cut through EVT 3.0 RAW and back gives the same rows.
+    // The same cut through EVT 3.0 RAW and back gives the same rows and sensor size, with no
+    // --geometry: the CSV states it.
     let raw = dir.path().join("cut.raw");
-    let out = ebiv(&[
-        "convert",
-        csv.to_str().unwrap(),
-        raw.to_str().unwrap(),
-        "--geometry",
-        "640x480",
-    ]);
+    let out = ebiv(&["convert", csv.to_str().unwrap(), raw.to_str().unwrap()]);
     assert!(out.status.success(), "{}", stderr(&out));
+    let info = ebiv(&["info", raw.to_str().unwrap()]);
+    assert!(stdout(&info).contains("640x480"), "{}", stdout(&info));
     let csv2 = dir.path().join("again.csv");
     let out = ebiv(&["convert", raw.to_str().unwrap(), csv2.to_str().unwrap()]);
     assert!(out.status.success(), "{}", stderr(&out));
@@ -365,7 +364,7 @@ fn read_field_rows(
     assert!(lines
         .next()
         .unwrap()
-        .starts_with("t_us,x,y,u,v,status,peak,peak_ratio"));
+        .starts_with("t_us,x_px,y_px,u_px_ms,v_px_ms,status,peak,peak_ratio"));
     lines
         .map(|l| {
             let f: Vec<&str> = l.split(',').collect();
@@ -651,4 +650,92 @@ fn an_interrupted_simulation_leaves_no_partial_file() {
     let (status, err, file, partial) = interrupt_simulation(dir.path(), "30ms", true);
     assert!(status.success(), "{status:?}: {err}");
     assert!(file && !partial);
+}
+
+/// The NetCDF of `ebiv process` is CF: `time` is a time coordinate with a stated reference
+/// and its relation to `--time`, x and y carry no `positive` (CF's is for vertical axes
+/// only), no attribute is repeated under a `user_` name, and the settings are plain text.
+#[test]
+fn wall_flow_netcdf_has_a_cf_time_axis_and_plain_attributes() {
+    let Some(file) = data("ebiv/wallflow_slice2.npz") else {
+        return;
+    };
+    let dir = tempfile::tempdir().unwrap();
+    let nc = dir.path().join("wall.nc");
+    let args = paper_settings(&file, "corrsum", &nc);
+    let o = ebiv(&[&args[..], &["--window", "40", "--step", "20"]].concat());
+    assert!(o.status.success(), "{}", stderr(&o));
+    let (ds, _) = netcdf3::FileReader::open(&nc).unwrap().close();
+    let attr = |var: &str, key: &str| ds.get_var_attr_as_string(var, key);
+    assert_eq!(
+        attr("time", "units").as_deref(),
+        Some("microseconds since 1970-01-01 00:00:00")
+    );
+    assert_eq!(attr("time", "standard_name").as_deref(), Some("time"));
+    assert!(attr("time", "calendar").is_some());
+    // --time 10ms counts from the first event, whose camera time the file states.
+    let origin = ds.get_global_attr_f64("time_origin_us").unwrap()[0];
+    let mut r = netcdf3::FileReader::open(&nc).unwrap();
+    assert_eq!(r.read_var_f64("time").unwrap(), vec![origin + 10_000.0]);
+    let comment = attr("time", "comment").unwrap();
+    assert!(
+        comment.contains(&format!("{origin} us")) && comment.contains("--time"),
+        "{comment}"
+    );
+    for var in ["x", "y"] {
+        assert_eq!(attr(var, "positive"), None, "{var}");
+    }
+    let names: Vec<String> = ds
+        .get_global_attrs()
+        .iter()
+        .map(|a| a.name().to_string())
+        .collect();
+    assert!(names.iter().all(|n| !n.starts_with("user_")), "{names:?}");
+    for name in &names {
+        if let Some(value) = ds.get_global_attr_as_string(name) {
+            for debug in ["{", "Params", "Positive"] {
+                assert!(!value.contains(debug), "{name} = {value}");
+            }
+        }
+    }
+    let validation = ds.get_global_attr_as_string("validation").unwrap();
+    assert!(
+        validation.starts_with("normalised median test threshold 2, epsilon"),
+        "{validation}"
+    );
+    assert_eq!(
+        ds.get_global_attr_as_string("polarity").as_deref(),
+        Some("pos")
+    );
+}
+
+/// The truth of `ebiv simulate --truth` holds the flow's velocity only: no status or quality
+/// variables, which a sampled flow does not have, in NetCDF and in CSV.
+#[test]
+fn simulated_truth_has_no_quality_variables() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = |name: &str| dir.path().join(name).to_str().unwrap().to_string();
+    for truth in ["truth.nc", "truth.csv"] {
+        let out = ebiv(&[
+            "simulate",
+            "--example",
+            "uniform",
+            "--duration",
+            "2ms",
+            "-o",
+            &path("sim.raw"),
+            "--truth",
+            &path(truth),
+        ]);
+        assert!(out.status.success(), "{}", stderr(&out));
+    }
+    let (ds, _) = netcdf3::FileReader::open(path("truth.nc")).unwrap().close();
+    for var in ["status", "peak", "peak_ratio", "event_count"] {
+        assert!(!ds.has_var(var), "{var}");
+    }
+    assert!(ds.has_var("u") && ds.has_var("v"));
+    let flow = ds.get_global_attr_as_string("flow").unwrap();
+    assert!(flow.contains("type = \"uniform\""), "{flow}");
+    let text = std::fs::read_to_string(path("truth.csv")).unwrap();
+    assert_eq!(text.lines().next(), Some("t_us,x_px,y_px,u_px_ms,v_px_ms"));
 }

@@ -6,11 +6,18 @@ mod common;
 use common::{data, ebiv, stderr, stdout};
 use std::path::Path;
 
-/// Rows of a field CSV as (x, y, u, v, status).
-fn read_csv(path: &Path) -> Vec<(f64, f64, f64, f64, u32)> {
+/// The first columns of a field CSV of image pairs (displacements, indexed fields).
+const IMAGE_PAIR_COLUMNS: &str = "field,x_px,y_px,u_px,v_px,status";
+/// The first columns of a field CSV of velocities in camera time.
+const EVENT_COLUMNS: &str = "t_us,x_px,y_px,u_px_ms,v_px_ms,status";
+
+/// Rows of a field CSV as (x, y, u, v, status), after checking that the header starts with
+/// `columns`.
+fn read_csv(path: &Path, columns: &str) -> Vec<(f64, f64, f64, f64, u32)> {
     let text = std::fs::read_to_string(path).unwrap();
     let mut lines = text.lines();
-    assert!(lines.next().unwrap().starts_with("t_us,x,y,u,v,status"));
+    let header = lines.next().unwrap();
+    assert!(header.starts_with(columns), "{header}");
     lines
         .map(|l| {
             let c: Vec<&str> = l.split(',').collect();
@@ -64,7 +71,7 @@ fn image_pair_gives_displacements_in_px() {
         "{}",
         stdout(&out)
     );
-    let rows = read_csv(&csv);
+    let rows = read_csv(&csv, IMAGE_PAIR_COLUMNS);
     let valid: Vec<_> = rows.iter().filter(|r| r.4 == 0).collect();
     assert!(valid.len() as f64 >= 0.95 * rows.len() as f64);
     // The Kármán street's free stream runs right to left at about 1.8 px per frame pair.
@@ -88,6 +95,16 @@ fn image_pair_gives_displacements_in_px() {
     let bytes = std::fs::read(&nc).unwrap();
     let text = String::from_utf8_lossy(&bytes);
     assert!(text.contains("displacement along x"));
+    // The time axis is the index of the pair, not a slab centre in camera time; the
+    // settings are plain text.
+    assert!(text.contains("index of the field (one per image pair)"));
+    for absent in ["slab", "microseconds since", "ValidationParams"] {
+        assert!(
+            !text.contains(absent),
+            "`{absent}` in the NetCDF of an image pair"
+        );
+    }
+    assert!(text.contains("normalised median test threshold"));
 
     // Mistakes are explained.
     let out = ebiv(&[
@@ -160,7 +177,7 @@ fn wall_flow_through_event_frames_matches_the_event_estimators() {
         csv.to_str().unwrap(),
     ]);
     assert!(out.status.success(), "{}", stderr(&out));
-    let rows = read_csv(&csv);
+    let rows = read_csv(&csv, EVENT_COLUMNS);
     let valid: Vec<_> = rows.iter().filter(|r| r.4 == 0).collect();
     let (u, v) = (
         median(valid.iter().map(|r| r.2).collect()),
@@ -243,7 +260,7 @@ phase_us = 300.0
         .and_then(|v| v.parse().ok())
         .unwrap_or_else(|| panic!("no pulse frequency in {text}"));
     assert!((hz - 1000.0).abs() < 1.0, "{hz} Hz");
-    let rows = read_csv(&csv);
+    let rows = read_csv(&csv, EVENT_COLUMNS);
     let valid: Vec<_> = rows.iter().filter(|r| r.4 == 0).collect();
     let (u, v) = (
         median(valid.iter().map(|r| r.2).collect()),
@@ -274,7 +291,7 @@ phase_us = 300.0
         csv.to_str().unwrap(),
     ]);
     assert!(out.status.success(), "{}", stderr(&out));
-    let rows = read_csv(&csv);
+    let rows = read_csv(&csv, EVENT_COLUMNS);
     assert!(!rows.is_empty());
     assert!(rows.iter().filter(|r| r.4 == 0).count() as f64 >= 0.9 * rows.len() as f64);
 }

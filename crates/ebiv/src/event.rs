@@ -39,6 +39,15 @@ pub enum PolaritySelection {
 }
 
 impl PolaritySelection {
+    /// The setting's name of this selection: `pos`, `neg` or `both`.
+    pub fn name(self) -> &'static str {
+        match self {
+            PolaritySelection::Positive => "pos",
+            PolaritySelection::Negative => "neg",
+            PolaritySelection::Both => "both",
+        }
+    }
+
     /// Parse `pos`/`positive`/`on`, `neg`/`negative`/`off` or `both`.
     pub fn parse(text: &str) -> Option<Self> {
         match text.trim().to_ascii_lowercase().as_str() {

@@ -301,6 +301,46 @@ impl Quantity {
     }
 }
 
+/// What the times `t_us` of a [`FieldSeries`] stand for; the writers describe the time axis
+/// from it.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum TimeBasis {
+    /// The centre of the time slab of events each field is measured from, µs of camera time
+    /// (event estimators).
+    #[default]
+    SlabCentre,
+    /// The centre of the time span of the frames each field is correlated from, µs of camera
+    /// time (PIV of frames rebuilt from events).
+    FrameCentre,
+    /// The instant each field holds, µs of camera time (ground truth of a simulation).
+    Instant,
+    /// The index of the field, 0, 1, …: one per image pair, a single 0 for an ensemble of
+    /// pairs. Image files carry no time stamps.
+    PairIndex,
+}
+
+impl TimeBasis {
+    /// Whether the times are µs of camera time (every basis but [`TimeBasis::PairIndex`]).
+    pub fn is_camera_time(self) -> bool {
+        self != TimeBasis::PairIndex
+    }
+
+    /// What a field's time is, as a phrase for file metadata.
+    pub fn describe(self) -> &'static str {
+        match self {
+            TimeBasis::SlabCentre => "centre of the field's time slab, microseconds of camera time",
+            TimeBasis::FrameCentre => {
+                "centre of the time span of the field's frames, microseconds of camera time"
+            }
+            TimeBasis::Instant => "instant of the field, microseconds of camera time",
+            TimeBasis::PairIndex => {
+                "index of the field: 0, 1, ... one per image pair (0 for an ensemble of pairs); \
+                 image files carry no time stamps"
+            }
+        }
+    }
+}
+
 /// A time series of 2-D vector fields on one regular grid.
 #[derive(Debug, Clone, PartialEq)]
 pub struct FieldSeries {
@@ -308,7 +348,7 @@ pub struct FieldSeries {
     pub x: Vec<f64>,
     /// Grid row positions, px.
     pub y: Vec<f64>,
-    /// Time of each field (centre of its time slab), µs.
+    /// Time of each field, µs of camera time, or an index (see `time_basis`).
     pub t_us: Vec<i64>,
     /// x velocity, px/ms, indexed `[t][y][x]` (NaN where invalid).
     pub u: Vec<f32>,
@@ -328,7 +368,18 @@ pub struct FieldSeries {
     /// What `u` and `v` hold: velocities (event estimators) or displacements (PIV of an
     /// image pair).
     pub quantity: Quantity,
-    /// Descriptive attributes written into every output (source, parameters, software).
+    /// What the times `t_us` stand for.
+    pub time_basis: TimeBasis,
+    /// The camera time, µs, that the run's requested field times (`ebiv process --time`)
+    /// count from: the first event of the recording, or 0 when they were given in camera time.
+    /// Written next to the time axis so that the two can be related; `None` when unknown.
+    pub time_origin_us: Option<i64>,
+    /// The series is a ground truth (a simulation's flow sampled on a grid): `status`, `peak`,
+    /// `peak_ratio` and `event_count` carry no information and the writers leave them out.
+    pub ground_truth: bool,
+    /// Descriptive attributes written into every output: the source and the processing
+    /// settings. The writers add the software, units, axis convention, time basis and
+    /// status legend themselves.
     pub attributes: Vec<(String, String)>,
 }
 
@@ -348,6 +399,9 @@ impl FieldSeries {
             event_count: vec![0; n],
             calibration: None,
             quantity: Quantity::Velocity,
+            time_basis: TimeBasis::SlabCentre,
+            time_origin_us: None,
+            ground_truth: false,
             attributes: Vec::new(),
         }
     }

@@ -22,6 +22,15 @@ pub enum SubPixelFit {
 }
 
 impl SubPixelFit {
+    /// The setting's name of this fit: `gauss3`, `parabolic` or `gauss2d`.
+    pub fn name(self) -> &'static str {
+        match self {
+            SubPixelFit::Gaussian3 => "gauss3",
+            SubPixelFit::Parabolic3 => "parabolic",
+            SubPixelFit::Gaussian2d => "gauss2d",
+        }
+    }
+
     /// The per-axis 3-point fit this estimator uses (and the 2-D Gaussian falls back to).
     pub fn per_axis(self) -> SubPixelFit {
         match self {

@@ -71,6 +71,25 @@ impl ValidationParams {
 }
 
 impl ValidationParams {
+    /// The tests in words, for file metadata, with the limits in `unit` (the unit of the
+    /// vectors they were applied to, e.g. `px/ms`): "normalised median test threshold 2,
+    /// epsilon 0.1 px/ms; minimum events off; minimum peak ratio 1.2; largest magnitude off".
+    pub fn describe(&self, unit: &str) -> String {
+        let limit = |on: bool, value: String| if on { value } else { "off".to_string() };
+        format!(
+            "normalised median test threshold {}, epsilon {} {unit}; minimum events {}; \
+             minimum peak ratio {}; largest magnitude {}",
+            self.median_threshold,
+            self.median_epsilon,
+            limit(self.min_events > 0, self.min_events.to_string()),
+            limit(self.min_peak_ratio > 0.0, self.min_peak_ratio.to_string()),
+            self.max_velocity
+                .map_or("off".to_string(), |m| format!("{m} {unit}")),
+        )
+    }
+}
+
+impl ValidationParams {
     /// The first per-vector test a vector fails, in [`validate`]'s order: event count
     /// ([`Status::FEW_EVENTS`]), peak ratio ([`Status::LOW_PEAK_RATIO`]; a NaN ratio never
     /// fails), magnitude ([`Status::OUT_OF_RANGE`]); `None` if it passes them all.
@@ -421,6 +440,24 @@ fn convolve_1d(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn settings_are_described_in_words_with_their_unit() {
+        let mut p = ValidationParams::default();
+        assert_eq!(
+            p.describe("px/ms"),
+            "normalised median test threshold 2, epsilon 0.1 px/ms; minimum events off; \
+             minimum peak ratio off; largest magnitude off"
+        );
+        p.min_events = 5;
+        p.min_peak_ratio = 1.2;
+        p.max_velocity = Some(8.0);
+        let text = p.describe("px");
+        assert!(
+            text.ends_with("minimum events 5; minimum peak ratio 1.2; largest magnitude 8 px"),
+            "{text}"
+        );
+    }
     use crate::test_rng::xorshift;
 
     /// A field of `h` rows and `w` columns with velocities `f(row, col)`, all valid.

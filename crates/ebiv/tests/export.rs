@@ -105,11 +105,17 @@ fn netcdf_round_trip() {
             ds.get_global_attr_as_string("tau_us").as_deref(),
             Some("250")
         );
-        let positive = if calibrated { "up" } else { "down" };
-        assert_eq!(
-            ds.get_var_attr_as_string("y", "positive").as_deref(),
-            Some(positive)
-        );
+        // CF's `positive` is for vertical axes only; the direction is in the long name.
+        assert_eq!(ds.get_var_attr_as_string("y", "positive"), None);
+        let direction = if calibrated {
+            "(up)"
+        } else {
+            "(down: image rows)"
+        };
+        assert!(ds
+            .get_var_attr_as_string("y", "long_name")
+            .unwrap()
+            .ends_with(direction));
         let units = if calibrated {
             "m/s"
         } else {
@@ -163,10 +169,10 @@ fn csv_round_trip() {
             &header[..9],
             [
                 "t_us",
-                "x",
-                "y",
-                "u",
-                "v",
+                "x_px",
+                "y_px",
+                "u_px_ms",
+                "v_px_ms",
                 "status",
                 "peak",
                 "peak_ratio",
@@ -553,18 +559,20 @@ fn vtk_round_trip() {
             let vtk = parse_vtk(&std::fs::read(file).unwrap());
             assert_eq!(vtk.dims, [3, 2, 1]);
             assert!(vtk.title.contains(&format!("t = {} us", f.t_us[t])));
-            // Coordinates ascend; with y up the image rows come bottom first.
+            // Coordinates ascend, and y points up in every VTK file (uncalibrated: y = −row,
+            // v positive up), so the image rows come bottom first.
             assert!(vtk.y[0] < vtk.y[1] && vtk.x[0] < vtk.x[1]);
-            let rows: [usize; 2] = if calibrated { [1, 0] } else { [0, 1] };
+            let rows: [usize; 2] = [1, 0];
+            let up = if calibrated { 1.0 } else { -1.0 };
             for (j, &row) in rows.iter().enumerate() {
                 for col in 0..3 {
                     let k = j * 3 + col;
                     let i = f.index(t, row, col);
                     let e = expected(&f, t, row, col);
                     assert_same("x", vtk.x[col], e[0]);
-                    assert_same("y", vtk.y[j], e[1]);
+                    assert_same("y", vtk.y[j], up * e[1]);
                     assert_same("u", vtk.velocity[k][0] as f64, e[2]);
-                    assert_same("v", vtk.velocity[k][1] as f64, e[3]);
+                    assert_same("v", vtk.velocity[k][1] as f64, up * e[3]);
                     assert_eq!(vtk.velocity[k][2], 0.0);
                     assert_eq!(vtk.status[k], f.status[i].0);
                     assert_same("peak", vtk.peak[k] as f64, f.peak[i] as f64);
@@ -590,8 +598,9 @@ fn vtk_single_field_goes_to_the_given_path() {
     let path = dir.path().join("one.vtk");
     write_field_vtk(&f, &path).unwrap();
     let vtk = parse_vtk(&std::fs::read(&path).unwrap());
-    assert!(vtk.velocity[5][0].is_nan() && vtk.velocity[5][1].is_nan());
-    assert_eq!(vtk.status[5], Status::NO_EVENTS.0);
+    // Row 1 (the lower one) comes first in the y-up file: (row 1, column 2) is point 2.
+    assert!(vtk.velocity[2][0].is_nan() && vtk.velocity[2][1].is_nan());
+    assert_eq!(vtk.status[2], Status::NO_EVENTS.0);
     assert!(!dir.path().join("one.vtk.series").exists());
 }
 
@@ -604,7 +613,7 @@ fn write_field_picks_the_format_from_the_extension() {
     let magic: [(&str, &[u8]); 6] = [
         ("a.nc", b"CDF\x02"),
         ("a.NPZ", b"PK\x03\x04"),
-        ("a.csv", b"t_us,x,y,u,v,status"),
+        ("a.csv", b"t_us,x_px,y_px,u_px_ms,v_px_ms,status"),
         ("a.dat", b"# ebiv"),
         ("a.tec", b"# ebiv"),
         ("a_0000.vtk", b"# vtk DataFile"),

@@ -26,7 +26,8 @@ pub struct SimulateArgs {
     /// The recording to write (.raw EVT 3.0, .csv, .npy, .npz, .aedat4).
     #[arg(short, long, default_value = "simulated.raw")]
     pub output: PathBuf,
-    /// Also write the true velocity field: .nc (NetCDF, dims time/y/x) or .csv (t_us,x,y,u,v).
+    /// Also write the true velocity field: .nc (NetCDF, dims time/y/x) or .csv
+    /// (t_us,x_px,y_px,u_px_ms,v_px_ms).
     #[arg(long, value_name = "FILE")]
     pub truth: Option<PathBuf>,
     /// Also write every particle's path in view: CSV id,t_us,x,y,z,u,v.
@@ -139,7 +140,7 @@ pub fn run(args: &SimulateArgs) -> Result<(), ebiv::Error> {
     if let (Some(path), Some(format)) = (&args.truth, truth_format) {
         crate::interrupt::check(path)?;
         let end = scenario.start + scenario.duration;
-        let field = ebiv::sim::truth::velocity_field(
+        let mut field = ebiv::sim::truth::velocity_field(
             sim.flow.as_ref(),
             sim.geometry,
             scenario.truth.grid_step,
@@ -147,6 +148,9 @@ pub fn run(args: &SimulateArgs) -> Result<(), ebiv::Error> {
             end,
             scenario.truth.interval,
         );
+        field
+            .attributes
+            .push(("flow".into(), scenario.flow.describe()));
         match format {
             TruthFormat::Csv => ebiv::export::write_field_csv(&field, path)?,
             TruthFormat::NetCdf => ebiv::export::write_field_netcdf(&field, path)?,

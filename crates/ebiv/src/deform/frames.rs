@@ -31,6 +31,15 @@ pub enum Interpolation {
 }
 
 impl Interpolation {
+    /// The setting's name: `linear`, `cubic` or `quintic`.
+    pub fn name(self) -> &'static str {
+        match self {
+            Interpolation::Linear => "linear",
+            Interpolation::Cubic => "cubic",
+            Interpolation::Quintic => "quintic",
+        }
+    }
+
     /// Parse `linear`, `cubic` or `quintic`.
     pub fn parse(text: &str) -> Option<Self> {
         match text {

@@ -122,6 +122,41 @@ pub enum ReferenceTime {
     MeanEventTime,
 }
 
+impl Objective {
+    /// The setting's name of this objective (`variance`, `sum-of-squares`, `sum-exp`, `r1`,
+    /// `isoa`, `max-accumulation`).
+    pub fn name(self) -> &'static str {
+        match self {
+            Objective::Variance => "variance",
+            Objective::SumOfSquares => "sum-of-squares",
+            Objective::SumExp => "sum-exp",
+            Objective::R1 => "r1",
+            Objective::Isoa => "isoa",
+            Objective::MaxAccumulation => "max-accumulation",
+        }
+    }
+}
+
+impl SearchMethod {
+    /// The setting's name: `newton` or `grid`.
+    pub fn name(self) -> &'static str {
+        match self {
+            SearchMethod::Newton => "newton",
+            SearchMethod::Grid => "grid",
+        }
+    }
+}
+
+impl ReferenceTime {
+    /// What the events are warped to, in words.
+    pub fn describe(self) -> &'static str {
+        match self {
+            ReferenceTime::SlabCentre => "slab centre",
+            ReferenceTime::MeanEventTime => "mean time of the window's events",
+        }
+    }
+}
+
 /// Parameters of [`ContrastMaximization`].
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
@@ -388,7 +423,7 @@ impl Estimator for ContrastMaximization {
                 "motion compensation (contrast maximisation)".into(),
             ),
             ("slab_us".into(), format!("{} us", p.slab_us)),
-            ("objective".into(), format!("{:?}", p.objective)),
+            ("objective".into(), p.objective.name().into()),
             (
                 "search_range".into(),
                 p.search_range
@@ -399,10 +434,10 @@ impl Estimator for ContrastMaximization {
             ("coarse_step".into(), format!("{} px/ms", p.coarse_step)),
             ("final_step".into(), format!("{} px/ms", p.final_step)),
             ("splat".into(), splat),
-            ("t_ref".into(), format!("{:?}", p.t_ref)),
+            ("t_ref".into(), p.t_ref.describe().into()),
             ("min_events".into(), p.min_events.to_string()),
-            ("fit".into(), format!("{:?}", p.fit)),
-            ("search".into(), format!("{:?}", p.search)),
+            ("fit".into(), p.fit.name().into()),
+            ("search".into(), p.search.name().into()),
         ]
     }
 }

@@ -1,45 +1,82 @@
 //! Vector fields as CSV (RFC 4180 layout, comma-separated, one header line, `\n` line ends).
 //!
-//! Columns, always first and always in image units so scripts keep working:
-//! `t_us,x,y,u,v,status` (µs; window centre in px, x right, y down; px/ms; status 0 = valid,
-//! else the bits of [`Status`](crate::field::Status)), then `peak,peak_ratio,event_count`.
-//! With a calibration the physical columns `x_mm,y_mm,u_m_s,v_m_s` follow (y and v positive
-//! up when the calibration says `y_up`). One line per vector, time-major, then rows, then
-//! columns. Invalid values are written as `NaN`; floats in their shortest exact form.
+//! The header names every column with its unit as a suffix, so that the file says what it
+//! holds to any CSV reader (pandas, `numpy.genfromtxt(..., names=True)`, spreadsheets)
+//! without comment lines:
+//!
+//! * `t_us`: the field's time, µs of camera time (see [`TimeBasis`]); for image pairs, which
+//!   carry no time stamps, the column is `field` instead: the index of the field (0, 1, …);
+//! * `x_px,y_px`: window centre, px (image coordinates: x right, y down, pixel centres at
+//!   integers);
+//! * `u_px_ms,v_px_ms`: velocity, px/ms (v positive down); `u_px,v_px` for the displacements
+//!   of image pairs without a time between the frames;
+//! * `status`: 0 = valid, else the bits of [`Status`](crate::field::Status);
+//! * `peak,peak_ratio,event_count`: the quality of each vector (left out for a ground truth,
+//!   [`FieldSeries::ground_truth`]).
+//!
+//! These columns always come first and always in image units. With a calibration the
+//! physical columns `x_mm,y_mm,u_m_s,v_m_s` follow (`u_mm,v_mm` for displacements; y and v
+//! positive up when the calibration says `y_up`). One line per vector, time-major, then rows,
+//! then columns. Invalid values are written as `NaN`; floats in their shortest exact form.
+//!
+//! [`TimeBasis`]: crate::field::TimeBasis
 
 use super::{check, write_atomic, Physical};
 use crate::error::Result;
-use crate::field::FieldSeries;
+use crate::field::{FieldSeries, TimeBasis};
 use std::io::Write;
 use std::path::Path;
 
-/// The header of a CSV without calibration.
-pub const CSV_HEADER: &str = "t_us,x,y,u,v,status,peak,peak_ratio,event_count";
+/// The header of a CSV of velocities measured in camera time, without calibration.
+pub const CSV_HEADER: &str = "t_us,x_px,y_px,u_px_ms,v_px_ms,status,peak,peak_ratio,event_count";
+
+/// A unit as a column-name suffix: `px/ms` → `px_ms`, `m/s` → `m_s`.
+fn suffix(unit: &str) -> String {
+    unit.replace('/', "_")
+}
+
+/// The header line [`write_field_csv`] writes for `field` (without the line end).
+pub fn csv_header(field: &FieldSeries) -> String {
+    let (image_unit, physical_unit) = field.quantity.units();
+    let time = if field.time_basis == TimeBasis::PairIndex {
+        "field"
+    } else {
+        "t_us"
+    };
+    let image = suffix(image_unit);
+    let mut header = format!("{time},x_px,y_px,u_{image},v_{image}");
+    if !field.ground_truth {
+        header.push_str(",status,peak,peak_ratio,event_count");
+    }
+    if field.calibration.is_some() {
+        let physical = suffix(physical_unit);
+        header.push_str(&format!(",x_mm,y_mm,u_{physical},v_{physical}"));
+    }
+    header
+}
 
 /// Write `field` as CSV (invalid vectors as `NaN`), through a temporary file.
 pub fn write_field_csv(field: &FieldSeries, path: &Path) -> Result<()> {
     check(field)?;
     let physical = field.calibration.as_ref().map(|c| Physical::new(field, c));
+    let header = csv_header(field);
     write_atomic(path, |w| {
-        write!(w, "{CSV_HEADER}")?;
-        if physical.is_some() {
-            write!(w, ",x_mm,y_mm,u_m_s,v_m_s")?;
-        }
-        writeln!(w)?;
+        writeln!(w, "{header}")?;
         for (ti, &t) in field.t_us.iter().enumerate() {
             for (row, &y) in field.y.iter().enumerate() {
                 for (col, &x) in field.x.iter().enumerate() {
                     let i = field.index(ti, row, col);
-                    write!(
-                        w,
-                        "{t},{x},{y},{},{},{},{},{},{}",
-                        field.u[i],
-                        field.v[i],
-                        field.status[i].0,
-                        field.peak[i],
-                        field.peak_ratio[i],
-                        field.event_count[i]
-                    )?;
+                    write!(w, "{t},{x},{y},{},{}", field.u[i], field.v[i])?;
+                    if !field.ground_truth {
+                        write!(
+                            w,
+                            ",{},{},{},{}",
+                            field.status[i].0,
+                            field.peak[i],
+                            field.peak_ratio[i],
+                            field.event_count[i]
+                        )?;
+                    }
                     if let Some(p) = &physical {
                         write!(w, ",{},{},{},{}", p.x_mm[col], p.y_mm[row], p.u[i], p.v[i])?;
                     }
@@ -54,7 +91,7 @@ pub fn write_field_csv(field: &FieldSeries, path: &Path) -> Result<()> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::field::{Calibration, Status};
+    use crate::field::{Calibration, Quantity, Status};
 
     #[test]
     fn csv_has_the_documented_header() {
@@ -65,9 +102,47 @@ mod tests {
         let text = std::fs::read_to_string(&path).unwrap();
         assert_eq!(
             text,
-            "t_us,x,y,u,v,status,peak,peak_ratio,event_count\n5,1,2,NaN,NaN,1,NaN,NaN,0\n"
+            "t_us,x_px,y_px,u_px_ms,v_px_ms,status,peak,peak_ratio,event_count\n\
+             5,1,2,NaN,NaN,1,NaN,NaN,0\n"
         );
+        assert_eq!(text.lines().next(), Some(CSV_HEADER));
         assert!(!dir.path().join("f.csv.partial").exists());
+    }
+
+    #[test]
+    fn column_names_carry_the_units_of_what_is_written() {
+        let mut f = FieldSeries::new(vec![1.0], vec![2.0], vec![0]);
+        f.quantity = Quantity::Displacement;
+        f.time_basis = TimeBasis::PairIndex;
+        assert_eq!(
+            csv_header(&f),
+            "field,x_px,y_px,u_px,v_px,status,peak,peak_ratio,event_count"
+        );
+        f.calibration = Some(Calibration {
+            mm_per_px: 0.5,
+            origin_px: [0.0, 0.0],
+            y_up: false,
+        });
+        assert!(csv_header(&f).ends_with(",x_mm,y_mm,u_mm,v_mm"));
+        f.quantity = Quantity::Velocity;
+        assert!(csv_header(&f).ends_with(",x_mm,y_mm,u_m_s,v_m_s"));
+    }
+
+    #[test]
+    fn ground_truth_has_only_positions_and_velocities() {
+        let mut f = FieldSeries::new(vec![1.0, 3.0], vec![2.0], vec![7]);
+        f.ground_truth = true;
+        f.time_basis = TimeBasis::Instant;
+        f.u = vec![0.5, 1.5];
+        f.v = vec![-1.0, 2.0];
+        f.status = vec![Status::VALID; 2];
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("truth.csv");
+        write_field_csv(&f, &path).unwrap();
+        assert_eq!(
+            std::fs::read_to_string(&path).unwrap(),
+            "t_us,x_px,y_px,u_px_ms,v_px_ms\n7,1,2,0.5,-1\n7,3,2,1.5,2\n"
+        );
     }
 
     #[test]
@@ -91,7 +166,8 @@ mod tests {
         let lines: Vec<&str> = text.lines().collect();
         assert_eq!(
             lines[0],
-            "t_us,x,y,u,v,status,peak,peak_ratio,event_count,x_mm,y_mm,u_m_s,v_m_s"
+            "t_us,x_px,y_px,u_px_ms,v_px_ms,status,peak,peak_ratio,event_count,\
+             x_mm,y_mm,u_m_s,v_m_s"
         );
         assert_eq!(lines[1], "-7,10,100,NaN,NaN,1,NaN,NaN,0,0,-5,NaN,NaN");
         assert_eq!(lines[2], "-7,30,100,2,4,0,0.25,3.5,42,10,-5,1,-2");

@@ -2,11 +2,16 @@
 //! NumPy `.npz`, CSV, Tecplot ASCII and legacy VTK, chosen by [`write_field`] from the file
 //! extension.
 //!
-//! Every writer states the axis convention and units, writes invalid vectors as NaN (or, where
-//! the format cannot carry NaN, as documented per format) next to the status flags, applies
-//! the series' [`Calibration`](crate::field::Calibration) the same way (positions in mm,
+//! Every writer states the axis convention, the units and what the field times are
+//! ([`TimeBasis`](crate::field::TimeBasis)), writes invalid vectors as NaN (or, where the
+//! format cannot carry NaN, as documented per format) next to the status flags, applies the
+//! series' [`Calibration`](crate::field::Calibration) the same way (positions in mm,
 //! velocities in m/s, `y` and `v` flipped together when `y_up`), and writes through a
-//! temporary `<name>.partial` file that is renamed when complete.
+//! temporary `<name>.partial` file that is renamed when complete. VTK files always have y up
+//! (a y-down series is written with y and v negated) so that ParaView does not show the image
+//! mirrored; see [`write_field_vtk`]. A ground truth
+//! ([`FieldSeries::ground_truth`]) is written without status and quality variables by the
+//! NetCDF and CSV writers.
 
 mod csv;
 mod netcdf;
@@ -14,7 +19,7 @@ mod npz;
 mod tecplot;
 mod vtk;
 
-pub use self::csv::{write_field_csv, CSV_HEADER};
+pub use self::csv::{csv_header, write_field_csv, CSV_HEADER};
 pub use self::netcdf::write_field_netcdf;
 pub use self::npz::write_field_npz;
 pub use self::tecplot::{write_field_tecplot, TECPLOT_MISSING};
@@ -254,23 +259,62 @@ pub(crate) fn axis_convention(field: &FieldSeries) -> String {
 /// The software that wrote a file.
 pub(crate) const SOFTWARE: &str = concat!("ebiv ", env!("CARGO_PKG_VERSION"));
 
+/// The sentence that relates the times of `field` to the camera clock and to `ebiv process
+/// --time`, for file metadata.
+pub(crate) fn time_comment(field: &FieldSeries) -> String {
+    if !field.time_basis.is_camera_time() {
+        return field.time_basis.describe().to_string();
+    }
+    let clock = "microseconds of the recording's camera clock, as its time stamps are stored \
+                 (the clock's zero is the camera's own, e.g. the start of a Prophesee RAW \
+                 recording or the Unix epoch for AEDAT 4)";
+    match field.time_origin_us {
+        Some(0) => format!(
+            "{clock}; the requested field times (ebiv process --time) were given on this clock"
+        ),
+        Some(origin) => format!(
+            "{clock}; ebiv process --time counts from the recording's first event, at \
+             {origin} us on this clock: time = {origin} us + the --time value"
+        ),
+        None => clock.to_string(),
+    }
+}
+
 /// Descriptive metadata for formats with free-form key/value attributes: the writer's own
-/// entries (software, axis convention, units, status legend, calibration), then the series'
-/// `attributes`. Keys are sanitised to `[A-Za-z_][A-Za-z0-9_]*` and made unique; a series
-/// attribute whose key the writer uses itself is kept with a `user_` prefix.
+/// entries (software, axis convention, time basis, units, status legend, calibration), then
+/// the series' `attributes`. Keys are sanitised to `[A-Za-z_][A-Za-z0-9_]*` and made unique; a
+/// series attribute identical to one of the writer's is left out, one whose key the writer
+/// uses with another value is kept with a `user_` prefix.
 pub(crate) fn metadata(field: &FieldSeries) -> Vec<(String, String)> {
     let w = Written::new(field);
     let mut own = vec![
         ("software".to_string(), SOFTWARE.to_string()),
         ("axis_convention".to_string(), axis_convention(field)),
-        ("time_units".to_string(), "us".to_string()),
+        (
+            "field_time".to_string(),
+            field.time_basis.describe().to_string(),
+        ),
+        (
+            "time_units".to_string(),
+            if field.time_basis.is_camera_time() {
+                "us"
+            } else {
+                "1 (index)"
+            }
+            .to_string(),
+        ),
         ("length_units".to_string(), w.length_unit.to_string()),
         ("velocity_units".to_string(), w.velocity_unit.to_string()),
-        (
+    ];
+    if let Some(origin) = field.time_origin_us {
+        own.push(("time_origin_us".to_string(), origin.to_string()));
+    }
+    if !field.ground_truth {
+        own.push((
             "status_flags".to_string(),
             format!("0 valid; bits: {}", Status::legend()),
-        ),
-    ];
+        ));
+    }
     if let Some(c) = &field.calibration {
         own.push(("mm_per_px".into(), c.mm_per_px.to_string()));
         own.push((
@@ -286,6 +330,9 @@ pub(crate) fn metadata(field: &FieldSeries) -> Vec<(String, String)> {
     let mut out = own;
     for (k, v) in &field.attributes {
         let mut key = sanitize_name(k);
+        if out.iter().any(|(ok, ov)| *ok == key && ov == v) {
+            continue;
+        }
         if reserved.contains(&key) {
             key = format!("user_{key}");
         }
@@ -340,6 +387,7 @@ mod tests {
         f.attributes.push(("source file".into(), "a".into()));
         f.attributes.push(("source-file".into(), "b".into()));
         f.attributes.push(("software".into(), "other".into()));
+        f.attributes.push(("software".into(), SOFTWARE.into()));
         f.attributes.push(("3d".into(), "no".into()));
         let m = metadata(&f);
         let get = |k: &str| m.iter().find(|(n, _)| n == k).map(|(_, v)| v.as_str());
@@ -347,6 +395,9 @@ mod tests {
         assert_eq!(get("source_file_2"), Some("b"));
         assert_eq!(get("software"), Some(SOFTWARE));
         assert_eq!(get("user_software"), Some("other"));
+        // An attribute identical to the writer's own is not repeated.
+        assert_eq!(get("user_software_2"), None);
+        assert_eq!(m.iter().filter(|(_, v)| v == SOFTWARE).count(), 1);
         assert_eq!(get("a_3d"), Some("no"));
     }
 

@@ -1,16 +1,29 @@
 //! Vector fields as NetCDF-3 files (64-bit offset; Unidata NetCDF "Classic and 64-bit
 //! Offset" format specification), following the CF conventions (CF-1.8) where they apply.
 //!
-//! Dimensions `(time, y, x)`. Coordinate variables `time` (µs), `y`, `x` (px, or mm with a
+//! Dimensions `(time, y, x)`. Coordinate variables `time`, `y`, `x` (px, or mm with a
 //! calibration, then also `x_px`, `y_px`); data variables `u`, `v` (px/ms or m/s, NaN =
 //! invalid), `status` (`short`, CF flag variable: `flag_masks`, `flag_meanings`), `peak`,
-//! `peak_ratio` (`float`), `event_count` (`int`). Global attributes state the axis
-//! convention, the software, the calibration and every attribute of the series. NetCDF-3 is
-//! read natively by MATLAB `ncread`, xarray and ParaView.
+//! `peak_ratio` (`float`), `event_count` (`int`). A ground truth
+//! ([`FieldSeries::ground_truth`]) has only `u` and `v`: it has no status or quality.
+//!
+//! `time` is a CF time coordinate (`standard_name = "time"`, `calendar`, units
+//! `microseconds since 1970-01-01 00:00:00`) on the recording's camera clock: CF needs a
+//! reference date, and the date stands for the zero of that clock, which is a real date only
+//! for recordings stamped in Unix time (AEDAT 4). Its `comment` says so and relates the times
+//! to `ebiv process --time` (the global `time_origin_us`). xarray decodes such a coordinate to
+//! dates; `decode_times=False` keeps the microseconds. For image pairs, which carry no time
+//! stamps, `time` is the index of the field (units `1`, no `standard_name`).
+//!
+//! `x` and `y` carry no CF `positive` attribute (CF reserves it for vertical coordinates);
+//! their `long_name` and the global `axis_convention` say which way they point. Global
+//! attributes also state the software, the field time, the status legend, the calibration
+//! and every attribute of the series; a series attribute identical to one the writer sets
+//! is not repeated. NetCDF-3 is read natively by MATLAB `ncread`, xarray and ParaView.
 
-use super::{axis_convention, check, partial_path, sanitize_name, Written, SOFTWARE};
+use super::{axis_convention, check, partial_path, sanitize_name, time_comment, Written, SOFTWARE};
 use crate::error::{Error, Result};
-use crate::field::{FieldSeries, Status};
+use crate::field::{FieldSeries, Status, TimeBasis};
 use netcdf3::{DataSet, FileWriter, Version};
 use std::path::Path;
 
@@ -21,18 +34,24 @@ fn nc_err(path: &Path, e: impl std::fmt::Debug) -> Error {
     }
 }
 
-/// Global attributes the writer sets itself; series attributes of the same (sanitised) name
-/// are written with a `user_` prefix.
-const OWN_GLOBALS: [&str; 8] = [
+/// Global attributes the writer may set itself; series attributes of the same (sanitised)
+/// name are left out when their value is the writer's, else written with a `user_` prefix.
+const OWN_GLOBALS: [&str; 10] = [
     "Conventions",
     "axis_convention",
     "software",
+    "field_time",
     "status_flags",
     "mm_per_px",
     "origin_px",
     "y_positive",
+    "time_origin_us",
     "title",
 ];
+
+/// Units of a CF time coordinate on the camera clock: CF needs a reference date, which here
+/// stands for the zero of the recording's clock (see the module documentation).
+pub const TIME_UNITS: &str = "microseconds since 1970-01-01 00:00:00";
 
 /// Write `field` to `path` as NetCDF-3 (64-bit offset), through a temporary file.
 ///
@@ -67,10 +86,13 @@ pub fn write_field_netcdf(field: &FieldSeries, path: &Path) -> Result<()> {
     let grid = ["time", "y", "x"];
     ds.add_var_f32("u", &grid).map_err(err)?;
     ds.add_var_f32("v", &grid).map_err(err)?;
-    ds.add_var_i16("status", &grid).map_err(err)?;
-    ds.add_var_f32("peak", &grid).map_err(err)?;
-    ds.add_var_f32("peak_ratio", &grid).map_err(err)?;
-    ds.add_var_i32("event_count", &grid).map_err(err)?;
+    let quality = !field.ground_truth;
+    if quality {
+        ds.add_var_i16("status", &grid).map_err(err)?;
+        ds.add_var_f32("peak", &grid).map_err(err)?;
+        ds.add_var_f32("peak_ratio", &grid).map_err(err)?;
+        ds.add_var_i32("event_count", &grid).map_err(err)?;
+    }
 
     let displacement = field.quantity == crate::field::Quantity::Displacement;
     let (length, velocity) = match (calibrated, displacement) {
@@ -88,21 +110,46 @@ pub fn write_field_netcdf(field: &FieldSeries, path: &Path) -> Result<()> {
         Some(c) if c.y_up => "up",
         _ => "down",
     };
-    let mut text_attrs: Vec<(&str, &str, String)> = vec![
-        ("time", "units", "microseconds".into()),
+    let y_direction = match &field.calibration {
+        Some(c) if c.y_up => "up",
+        Some(_) => "down",
+        None => "down: image rows",
+    };
+    let position = if field.ground_truth {
+        "grid node"
+    } else {
+        "window centre"
+    };
+    let mut text_attrs: Vec<(&str, &str, String)> = Vec::new();
+    if field.time_basis.is_camera_time() {
+        text_attrs.extend([
+            ("time", "standard_name", "time".into()),
+            ("time", "units", TIME_UNITS.into()),
+            ("time", "calendar", "proleptic_gregorian".into()),
+            ("time", "axis", "T".into()),
+        ]);
+    } else {
+        text_attrs.push(("time", "units", "1".into()));
+    }
+    text_attrs.extend([
         (
             "time",
             "long_name",
-            "time of the field (centre of its time slab)".into(),
+            match field.time_basis {
+                TimeBasis::SlabCentre => "time of the field: centre of its time slab",
+                TimeBasis::FrameCentre => "time of the field: centre of its frames' time span",
+                TimeBasis::Instant => "time of the field",
+                TimeBasis::PairIndex => "index of the field (one per image pair)",
+            }
+            .into(),
         ),
-        ("time", "axis", "T".into()),
+        ("time", "comment", time_comment(field)),
         ("y", "units", length.into()),
-        ("y", "positive", y_positive.into()),
         ("y", "axis", "Y".into()),
-        ("y", "long_name", "window centre, y".into()),
+        ("y", "long_name", format!("{position}, y ({y_direction})")),
         ("x", "units", length.into()),
         ("x", "axis", "X".into()),
-        ("x", "long_name", "window centre, x (to the right)".into()),
+        ("x", "long_name", format!("{position}, x (to the right)")),
         ("u", "units", velocity.into()),
         ("u", "long_name", format!("{noun} along x (to the right)")),
         ("v", "units", velocity.into()),
@@ -111,46 +158,50 @@ pub fn write_field_netcdf(field: &FieldSeries, path: &Path) -> Result<()> {
             "long_name",
             format!("{noun} along y (positive {y_positive})"),
         ),
-        ("status", "long_name", "vector status flags".into()),
-        (
-            "status",
-            "flag_meanings",
-            Status::NAMES
-                .iter()
-                .map(|(n, _)| *n)
-                .collect::<Vec<_>>()
-                .join(" "),
-        ),
-        (
-            "status",
-            "comment",
-            format!("0 valid; bits: {}", Status::legend()),
-        ),
-        (
-            "peak",
-            "long_name",
-            "peak of the correlation plane or objective".into(),
-        ),
-        (
-            "peak_ratio",
-            "long_name",
-            "first-to-second peak ratio".into(),
-        ),
-        ("peak_ratio", "units", "1".into()),
-        (
-            "peak_ratio",
-            "comment",
-            "NaN where not defined; below 1: valid vector re-evaluated on a lower peak \
-             (multiple-peak validation), its height over the highest peak"
-                .into(),
-        ),
-        (
-            "event_count",
-            "long_name",
-            "events used in the window".into(),
-        ),
-        ("event_count", "units", "1".into()),
-    ];
+    ]);
+    if quality {
+        text_attrs.extend([
+            ("status", "long_name", "vector status flags".into()),
+            (
+                "status",
+                "flag_meanings",
+                Status::NAMES
+                    .iter()
+                    .map(|(n, _)| *n)
+                    .collect::<Vec<_>>()
+                    .join(" "),
+            ),
+            (
+                "status",
+                "comment",
+                format!("0 valid; bits: {}", Status::legend()),
+            ),
+            (
+                "peak",
+                "long_name",
+                "peak of the correlation plane or objective".into(),
+            ),
+            (
+                "peak_ratio",
+                "long_name",
+                "first-to-second peak ratio".into(),
+            ),
+            ("peak_ratio", "units", "1".into()),
+            (
+                "peak_ratio",
+                "comment",
+                "NaN where not defined; below 1: valid vector re-evaluated on a lower peak \
+                 (multiple-peak validation), its height over the highest peak"
+                    .into(),
+            ),
+            (
+                "event_count",
+                "long_name",
+                "events used in the window".into(),
+            ),
+            ("event_count", "units", "1".into()),
+        ]);
+    }
     if calibrated {
         text_attrs.extend([
             ("y_px", "units", "pixel".into()),
@@ -165,28 +216,44 @@ pub fn write_field_netcdf(field: &FieldSeries, path: &Path) -> Result<()> {
     }
     // No NaN `_FillValue` attribute: netcdf3 compares variables by value, and NaN never
     // equals itself. NaN data are read as NaN by MATLAB, xarray and ParaView anyway.
-    for var in ["u", "v"] {
-        text_attrs.push((var, "comment", "NaN where no valid vector".into()));
+    if quality {
+        for var in ["u", "v"] {
+            text_attrs.push((var, "comment", "NaN where no valid vector".into()));
+        }
     }
     for (var, key, value) in &text_attrs {
         ds.add_var_attr_string(var, key, value).map_err(err)?;
     }
-    let masks: Vec<i16> = Status::NAMES.iter().map(|(_, s)| s.0 as i16).collect();
-    ds.add_var_attr_i16("status", "flag_masks", masks)
-        .map_err(err)?;
-    ds.add_var_attr_i16("status", "valid_range", vec![0, 255])
-        .map_err(err)?;
+    if quality {
+        let masks: Vec<i16> = Status::NAMES.iter().map(|(_, s)| s.0 as i16).collect();
+        ds.add_var_attr_i16("status", "flag_masks", masks)
+            .map_err(err)?;
+        ds.add_var_attr_i16("status", "valid_range", vec![0, 255])
+            .map_err(err)?;
+    }
 
-    ds.add_global_attr_string("Conventions", "CF-1.8")
-        .map_err(err)?;
-    ds.add_global_attr_string("title", "ebiv vector field series")
-        .map_err(err)?;
-    ds.add_global_attr_string("axis_convention", axis_convention(field))
-        .map_err(err)?;
-    ds.add_global_attr_string("software", SOFTWARE)
-        .map_err(err)?;
-    ds.add_global_attr_string("status_flags", Status::legend())
-        .map_err(err)?;
+    let title = if field.ground_truth {
+        "ebiv ground-truth velocity field series"
+    } else {
+        "ebiv vector field series"
+    };
+    let mut own: Vec<(&str, String)> = vec![
+        ("Conventions", "CF-1.8".into()),
+        ("title", title.into()),
+        ("axis_convention", axis_convention(field)),
+        ("software", SOFTWARE.into()),
+        ("field_time", field.time_basis.describe().into()),
+    ];
+    if quality {
+        own.push(("status_flags", Status::legend()));
+    }
+    for (key, value) in &own {
+        ds.add_global_attr_string(key, value).map_err(err)?;
+    }
+    if let Some(origin) = field.time_origin_us {
+        ds.add_global_attr_f64("time_origin_us", vec![origin as f64])
+            .map_err(err)?;
+    }
     if let Some(c) = &field.calibration {
         ds.add_global_attr_f64("mm_per_px", vec![c.mm_per_px])
             .map_err(err)?;
@@ -197,6 +264,9 @@ pub fn write_field_netcdf(field: &FieldSeries, path: &Path) -> Result<()> {
     }
     for (k, v) in &field.attributes {
         let mut key = sanitize_name(k);
+        if own.iter().any(|(ok, ov)| *ok == key && ov == v) {
+            continue;
+        }
         if OWN_GLOBALS.contains(&key.as_str()) {
             key = format!("user_{key}");
         }
@@ -224,11 +294,13 @@ pub fn write_field_netcdf(field: &FieldSeries, path: &Path) -> Result<()> {
         }
         w.write_var_f32("u", &written.u).map_err(werr)?;
         w.write_var_f32("v", &written.v).map_err(werr)?;
-        w.write_var_i16("status", &status).map_err(werr)?;
-        w.write_var_f32("peak", &field.peak).map_err(werr)?;
-        w.write_var_f32("peak_ratio", &field.peak_ratio)
-            .map_err(werr)?;
-        w.write_var_i32("event_count", &event_count).map_err(werr)?;
+        if quality {
+            w.write_var_i16("status", &status).map_err(werr)?;
+            w.write_var_f32("peak", &field.peak).map_err(werr)?;
+            w.write_var_f32("peak_ratio", &field.peak_ratio)
+                .map_err(werr)?;
+            w.write_var_i32("event_count", &event_count).map_err(werr)?;
+        }
         w.close().map_err(werr)
     })();
     if let Err(e) = result {
@@ -293,10 +365,6 @@ mod tests {
             Some("pixel/millisecond")
         );
         assert_eq!(
-            ds.get_var_attr_as_string("y", "positive").as_deref(),
-            Some("down")
-        );
-        assert_eq!(
             ds.get_var_attr_i16("status", "flag_masks"),
             Some(&[1i16, 2, 4, 8, 16, 32, 64, 128][..])
         );
@@ -348,7 +416,11 @@ mod tests {
             Some("mm")
         );
         assert_eq!(
-            ds.get_var_attr_as_string("y", "positive").as_deref(),
+            ds.get_var_attr_as_string("y", "long_name").as_deref(),
+            Some("window centre, y (up)")
+        );
+        assert_eq!(
+            ds.get_global_attr_as_string("y_positive").as_deref(),
             Some("up")
         );
         assert_eq!(ds.get_global_attr_f64("mm_per_px"), Some(&[0.1][..]));
@@ -367,6 +439,93 @@ mod tests {
         assert!((v[5] - 0.5).abs() < 1e-6);
         assert!(u[3].is_nan() && v[3].is_nan());
         assert_eq!(r.read_var_i16("status").unwrap()[3], 129);
+    }
+
+    #[test]
+    fn time_is_a_cf_time_coordinate_and_x_y_carry_no_positive() {
+        let mut f = series();
+        f.time_origin_us = Some(1_000_000);
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("f.nc");
+        write_field_netcdf(&f, &path).unwrap();
+        let (ds, _) = netcdf3::FileReader::open(&path).unwrap().close();
+        let attr = |var: &str, key: &str| ds.get_var_attr_as_string(var, key);
+        assert_eq!(
+            attr("time", "units").as_deref(),
+            Some("microseconds since 1970-01-01 00:00:00")
+        );
+        assert_eq!(attr("time", "standard_name").as_deref(), Some("time"));
+        assert_eq!(
+            attr("time", "calendar").as_deref(),
+            Some("proleptic_gregorian")
+        );
+        let comment = attr("time", "comment").unwrap();
+        assert!(
+            comment.contains("camera clock") && comment.contains("1000000 us"),
+            "{comment}"
+        );
+        assert_eq!(ds.get_global_attr_f64("time_origin_us"), Some(&[1e6][..]));
+        for var in ["x", "y"] {
+            assert_eq!(attr(var, "positive"), None, "{var}");
+        }
+        assert_eq!(
+            attr("y", "long_name").as_deref(),
+            Some("window centre, y (down: image rows)")
+        );
+    }
+
+    #[test]
+    fn series_attributes_equal_to_the_writers_are_not_repeated() {
+        let mut f = series();
+        f.attributes.retain(|(k, _)| k != "software");
+        f.attributes.push(("software".into(), SOFTWARE.into()));
+        f.attributes.push(("status_flags".into(), Status::legend()));
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("f.nc");
+        write_field_netcdf(&f, &path).unwrap();
+        let (ds, _) = netcdf3::FileReader::open(&path).unwrap().close();
+        assert!(ds.has_global_attr("software") && ds.has_global_attr("status_flags"));
+        assert!(!ds.has_global_attr("user_software"));
+        assert!(!ds.has_global_attr("user_status_flags"));
+    }
+
+    #[test]
+    fn image_pair_series_has_an_index_not_a_camera_time() {
+        let mut f = series();
+        f.time_basis = TimeBasis::PairIndex;
+        f.quantity = crate::field::Quantity::Displacement;
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("f.nc");
+        write_field_netcdf(&f, &path).unwrap();
+        let (ds, _) = netcdf3::FileReader::open(&path).unwrap().close();
+        let attr = |var: &str, key: &str| ds.get_var_attr_as_string(var, key);
+        assert_eq!(attr("time", "units").as_deref(), Some("1"));
+        assert_eq!(attr("time", "standard_name"), None);
+        assert_eq!(attr("time", "calendar"), None);
+        let long_name = attr("time", "long_name").unwrap();
+        assert!(long_name.contains("image pair"), "{long_name}");
+        assert!(!long_name.contains("slab"), "{long_name}");
+        let field_time = ds.get_global_attr_as_string("field_time").unwrap();
+        assert!(field_time.contains("index") && !field_time.contains("slab"));
+        assert_eq!(attr("u", "units").as_deref(), Some("pixel"));
+    }
+
+    #[test]
+    fn ground_truth_has_no_status_or_quality_variables() {
+        let mut f = series();
+        f.ground_truth = true;
+        f.time_basis = TimeBasis::Instant;
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("truth.nc");
+        write_field_netcdf(&f, &path).unwrap();
+        let (ds, _) = netcdf3::FileReader::open(&path).unwrap().close();
+        for var in ["status", "peak", "peak_ratio", "event_count"] {
+            assert!(!ds.has_var(var), "{var}");
+        }
+        assert!(!ds.has_global_attr("status_flags"));
+        assert!(ds.has_var("u") && ds.has_var("v"));
+        let mut r = netcdf3::FileReader::open(&path).unwrap();
+        assert_eq!(r.read_var_f32("u").unwrap()[5], 5.0);
     }
 
     #[test]

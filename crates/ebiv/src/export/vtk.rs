@@ -7,8 +7,15 @@
 //! `SCALARS` section is skipped unless the reader is told to read all of them.
 //!
 //! The files are `BINARY` (big-endian, as the legacy format prescribes): VTK's ASCII legacy
-//! reader does not parse `nan`, and invalid vectors must stay NaN, never zero. Coordinates
-//! ascend as VTK expects: with a `y_up` calibration the rows are written bottom row first.
+//! reader does not parse `nan`, and invalid vectors must stay NaN, never zero.
+//!
+//! **y points up in every VTK file.** ParaView draws y upwards, so image coordinates (y down)
+//! written as they are would show the image upside down. Where the series is written with y
+//! down (image coordinates, or a calibration without `y_up`), the y coordinates and the v
+//! component are both negated: image row `r` is at `y = −r` (mm: `−y_mm`), `v` is positive
+//! up, and ParaView shows the field as the camera saw it. With a `y_up` calibration they are
+//! written as they are. The file's title line states which. Coordinates ascend as VTK
+//! expects, so the rows are written bottom row first.
 //!
 //! One file per time step. A single field goes to `path`; a series of `nt > 1` fields goes
 //! to `stem_0000.vtk`, `stem_0001.vtk`, … (see [`vtk_series_paths`]) plus a ParaView file
@@ -96,17 +103,25 @@ fn write_step(
             (0..axis.len()).collect()
         }
     };
-    let (rows, cols) = (order(&w.y), order(&w.x));
+    // y up in the file (see the module documentation): negate y and v of a y-down series.
+    let flip = field.calibration.as_ref().is_none_or(|c| !c.y_up);
+    let sign = if flip { -1.0 } else { 1.0 };
+    let ys: Vec<f64> = w.y.iter().map(|&y| sign * y + 0.0).collect();
+    let (rows, cols) = (order(&ys), order(&w.x));
     let points = || {
         rows.iter()
             .flat_map(|&r| cols.iter().map(move |&c| field.index(ti, r, c)))
     };
     let (image_unit, physical_unit) = field.quantity.units();
     let axes = match &field.calibration {
-        None => format!("x right, y down (image); px, {image_unit}"),
+        None => format!("x right, y up (y = -image row, v positive up); px, {image_unit}"),
         Some(c) => format!(
-            "x right, y {}; mm, {physical_unit}; origin ({}, {}) px, {} mm/px",
-            if c.y_up { "up" } else { "down" },
+            "x right, y up{}; mm, {physical_unit}; origin ({}, {}) px, {} mm/px",
+            if c.y_up {
+                ""
+            } else {
+                " (y = -y_mm, v positive up)"
+            },
             c.origin_px[0],
             c.origin_px[1],
             c.mm_per_px
@@ -129,7 +144,7 @@ fn write_step(
     writeln!(out, "\nY_COORDINATES {ny} double")?;
     buf.clear();
     for &r in &rows {
-        buf.extend_from_slice(&w.y[r].to_be_bytes());
+        buf.extend_from_slice(&ys[r].to_be_bytes());
     }
     out.write_all(&buf)?;
     writeln!(out, "\nZ_COORDINATES 1 double")?;
@@ -139,7 +154,7 @@ fn write_step(
     writeln!(out, "VECTORS velocity float")?;
     buf.clear();
     for i in points() {
-        for c in [w.u[i], w.v[i], 0.0] {
+        for c in [w.u[i], sign as f32 * w.v[i] + 0.0, 0.0] {
             buf.extend_from_slice(&c.to_be_bytes());
         }
     }
@@ -227,5 +242,75 @@ mod tests {
         assert!(text.contains("\nBINARY\nDATASET RECTILINEAR_GRID\nDIMENSIONS 2 1 1\n"));
         assert!(text.contains("\nPOINT_DATA 2\nVECTORS velocity float\n"));
         assert!(!dir.path().join("f.vtk.series").exists());
+    }
+
+    /// The doubles after `key` up to the next line: the coordinates of one axis.
+    fn coordinates(bytes: &[u8], key: &str, n: usize) -> Vec<f64> {
+        let at = bytes
+            .windows(key.len())
+            .position(|w| w == key.as_bytes())
+            .unwrap();
+        let start = at + bytes[at..].iter().position(|&b| b == b'\n').unwrap() + 1;
+        (0..n)
+            .map(|k| {
+                let b = &bytes[start + 8 * k..start + 8 * k + 8];
+                f64::from_be_bytes(b.try_into().unwrap())
+            })
+            .collect()
+    }
+
+    /// The (u, v) of each point, in file order.
+    fn vectors(bytes: &[u8], n: usize) -> Vec<(f32, f32)> {
+        let key = b"VECTORS velocity float\n";
+        let at = bytes.windows(key.len()).position(|w| w == key).unwrap() + key.len();
+        (0..n)
+            .map(|k| {
+                let f = |j: usize| {
+                    let o = at + 12 * k + 4 * j;
+                    f32::from_be_bytes(bytes[o..o + 4].try_into().unwrap())
+                };
+                (f(0), f(1))
+            })
+            .collect()
+    }
+
+    #[test]
+    fn image_coordinates_are_written_y_up_so_the_image_is_not_mirrored() {
+        // Two rows: row 10 (top of the image) moves down (+v), row 50 moves up (−v).
+        let mut f = FieldSeries::new(vec![0.0], vec![10.0, 50.0], vec![0]);
+        f.u = vec![1.0, 2.0];
+        f.v = vec![3.0, -4.0];
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("f.vtk");
+        write_field_vtk(&f, &path).unwrap();
+        let bytes = std::fs::read(&path).unwrap();
+        let text = String::from_utf8_lossy(&bytes);
+        assert!(
+            text.contains("y up (y = -image row, v positive up)"),
+            "{text}"
+        );
+        // Ascending y: the bottom row (50 → −50) first, the top row (10 → −10) last, so the
+        // top of the image is drawn at the top.
+        assert_eq!(coordinates(&bytes, "Y_COORDINATES", 2), vec![-50.0, -10.0]);
+        // Row 50 moved up on the image: positive v in the y-up file.
+        assert_eq!(vectors(&bytes, 2), vec![(2.0, 4.0), (1.0, -3.0)]);
+    }
+
+    #[test]
+    fn y_up_calibration_is_written_as_it_is() {
+        let mut f = FieldSeries::new(vec![0.0], vec![10.0, 50.0], vec![0]);
+        f.u = vec![1.0, 2.0];
+        f.v = vec![3.0, -4.0];
+        f.calibration = Some(crate::field::Calibration {
+            mm_per_px: 1.0,
+            origin_px: [0.0, 0.0],
+            y_up: true,
+        });
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("f.vtk");
+        write_field_vtk(&f, &path).unwrap();
+        let bytes = std::fs::read(&path).unwrap();
+        assert_eq!(coordinates(&bytes, "Y_COORDINATES", 2), vec![-50.0, -10.0]);
+        assert_eq!(vectors(&bytes, 2), vec![(2.0, 4.0), (1.0, -3.0)]);
     }
 }

@@ -27,6 +27,16 @@ pub enum PulseSource {
     EventHistogram,
 }
 
+impl PulseSource {
+    /// Where the timing came from, in words.
+    pub fn describe(self) -> &'static str {
+        match self {
+            PulseSource::Triggers => "trigger edges",
+            PulseSource::EventHistogram => "the event rate",
+        }
+    }
+}
+
 /// The timing of a pulsed light source, as seen in a recording.
 #[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
 pub struct PulseTiming {

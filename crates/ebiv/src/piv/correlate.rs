@@ -32,6 +32,14 @@ pub enum CorrelationKind {
 }
 
 impl CorrelationKind {
+    /// The setting's name: `circular` or `linear`.
+    pub fn name(self) -> &'static str {
+        match self {
+            CorrelationKind::Circular => "circular",
+            CorrelationKind::Linear => "linear",
+        }
+    }
+
     /// Parse `circular` or `linear`.
     pub fn parse(text: &str) -> Option<Self> {
         match text {

@@ -10,7 +10,7 @@
 use super::{piv_ensemble, PivParams};
 use crate::error::{Error, Result};
 use crate::event::Geometry;
-use crate::field::FieldSeries;
+use crate::field::{FieldSeries, TimeBasis};
 use crate::frame::events::{build_frame, FrameSpec};
 use crate::frame::pulse::PulseTiming;
 use crate::frame::Frame;
@@ -181,6 +181,7 @@ pub fn piv_events<S: BatchSource>(
     let grid = crate::grid::Grid::new(last_grid, geometry)?;
     let mut series = FieldSeries::on_grid(grid.x_centres(), grid.y_centres());
     series.attributes = attributes(params);
+    series.time_basis = TimeBasis::FrameCentre;
     let mut sliding = SlidingEvents::default();
     let mut summary = RunSummary::default();
     for (k, plan) in plans.iter().enumerate() {
@@ -226,24 +227,21 @@ pub fn piv_events<S: BatchSource>(
     Ok((series, summary))
 }
 
-/// The run's settings as output attributes.
+/// The run's settings as output attributes (the writers add the software, the time basis and
+/// the status legend).
 fn attributes(params: &EventPivParams) -> Vec<(String, String)> {
     let f = &params.frames;
     let clock = match params.clock {
         FrameClock::Regular { step_us } => format!("regular, frame step {step_us} us"),
         FrameClock::Pulsed(t) => format!(
-            "one frame per light pulse: {:.3} Hz, period {:.3} us, phase {:.1} us ({:?})",
+            "one frame per light pulse: {:.3} Hz, period {:.3} us, phase {:.1} us (from {})",
             t.frequency_hz,
             t.period_us,
             t.phase_us(),
-            t.source
+            t.source.describe()
         ),
     };
     let mut a = vec![
-        (
-            "software".to_string(),
-            format!("ebiv {}", env!("CARGO_PKG_VERSION")),
-        ),
         (
             "method".to_string(),
             match params.clock {
@@ -256,10 +254,10 @@ fn attributes(params: &EventPivParams) -> Vec<(String, String)> {
         (
             "frame_kind".to_string(),
             format!(
-                "{}, exposure {} us, polarity {:?}, splat sigma {} px",
+                "{}, exposure {} us, polarity {}, splat sigma {} px",
                 f.kind.name(),
                 f.exposure_us,
-                f.polarity,
+                f.polarity.name(),
                 f.splat_sigma
             ),
         ),
@@ -267,12 +265,10 @@ fn attributes(params: &EventPivParams) -> Vec<(String, String)> {
             "frame_pairs_per_field".to_string(),
             params.pairs.to_string(),
         ),
-        (
-            "field_time".to_string(),
-            "centre of the frames' time span (microseconds)".to_string(),
-        ),
     ];
-    a.extend(super::attributes(&params.piv));
+    // `params.piv` holds the validation limits as given, in px/ms; the engine runs on
+    // `over_interval` of them.
+    a.extend(super::attributes(&params.piv, "px/ms"));
     a
 }
 

@@ -4,7 +4,7 @@
 
 use super::{piv_ensemble, PivParams};
 use crate::error::{Error, Result};
-use crate::field::{FieldSeries, Quantity, VectorField};
+use crate::field::{FieldSeries, Quantity, TimeBasis, VectorField};
 use crate::frame::Frame;
 use crate::grid::Grid;
 use crate::process::RunSummary;
@@ -164,8 +164,17 @@ pub fn piv_image_series(
     } else {
         Quantity::Displacement
     };
-    series.attributes = series_attributes(paths, &pairs, params.ensemble);
-    series.attributes.extend(super::attributes(&piv));
+    series.time_basis = TimeBasis::PairIndex;
+    series.attributes = series_attributes(paths, &pairs, params);
+    // `params.piv` holds the validation limits as given: px/ms with a `dt`, else px.
+    let unit = if params.dt_us.is_some() {
+        "px/ms"
+    } else {
+        "px"
+    };
+    series
+        .attributes
+        .extend(super::attributes(&params.piv, unit));
     Ok((series, summary))
 }
 
@@ -178,16 +187,14 @@ pub fn scaled_params(params: &ImageSeriesParams) -> PivParams {
     }
 }
 
+/// The input of an image series as output attributes: method, files, pairs, ensemble and
+/// the time between the frames of a pair when given.
 fn series_attributes(
     paths: &[PathBuf],
     pairs: &[(usize, usize)],
-    ensemble: bool,
+    params: &ImageSeriesParams,
 ) -> Vec<(String, String)> {
-    vec![
-        (
-            "software".into(),
-            format!("ebiv {}", env!("CARGO_PKG_VERSION")),
-        ),
+    let mut a = vec![
         ("method".into(), "piv of image pairs".into()),
         (
             "source".into(),
@@ -205,12 +212,17 @@ fn series_attributes(
                 .collect::<Vec<_>>()
                 .join(" "),
         ),
-        ("ensemble".into(), ensemble.to_string()),
-        (
-            "field_time".into(),
-            "index of the field (image pairs carry no time stamps)".into(),
-        ),
-    ]
+        ("ensemble".into(), params.ensemble.to_string()),
+    ];
+    if let Some(dt) = params.dt_us {
+        a.push((
+            "frame_interval".into(),
+            format!(
+                "{dt} us between the two frames of a pair; u, v are the displacements divided by it"
+            ),
+        ));
+    }
+    a
 }
 
 /// The folder the images come from, for messages.

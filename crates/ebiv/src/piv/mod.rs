@@ -53,6 +53,14 @@ pub enum DeformationMode {
 }
 
 impl DeformationMode {
+    /// The setting's name: `symmetric` or `second`.
+    pub fn name(self) -> &'static str {
+        match self {
+            DeformationMode::Symmetric => "symmetric",
+            DeformationMode::Second => "second",
+        }
+    }
+
     /// Parse `symmetric` or `second`.
     pub fn parse(text: &str) -> Option<Self> {
         match text {
@@ -179,8 +187,11 @@ impl PivParams {
     }
 }
 
-/// The settings of a PIV run as output attributes (NetCDF, VTK, Tecplot, CSV comments).
-pub fn attributes(p: &PivParams) -> Vec<(String, String)> {
+/// The settings of a PIV run as output attributes (NetCDF, NPZ, Tecplot), the validation
+/// limits in `unit` (the unit of the vectors `p` validates: `px` for the displacements of the
+/// engine, `px/ms` for settings given before [`PivParams::over_interval`]). The writers add the
+/// software and the status legend.
+pub fn attributes(p: &PivParams, unit: &str) -> Vec<(String, String)> {
     let passes = p
         .passes
         .iter()
@@ -194,21 +205,12 @@ pub fn attributes(p: &PivParams) -> Vec<(String, String)> {
         .join(", ");
     vec![
         ("passes".to_string(), passes),
-        (
-            "correlation".to_string(),
-            format!("{:?}", p.correlation).to_lowercase(),
-        ),
-        (
-            "subpixel_fit".to_string(),
-            format!("{:?}", p.fit).to_lowercase(),
-        ),
-        (
-            "deformation".to_string(),
-            format!("{:?}", p.deformation).to_lowercase(),
-        ),
+        ("correlation".to_string(), p.correlation.name().to_string()),
+        ("subpixel_fit".to_string(), p.fit.name().to_string()),
+        ("deformation".to_string(), p.deformation.name().to_string()),
         (
             "interpolation".to_string(),
-            format!("{:?}", p.interpolation).to_lowercase(),
+            p.interpolation.name().to_string(),
         ),
         (
             "final_pass_iterations".to_string(),
@@ -221,7 +223,7 @@ pub fn attributes(p: &PivParams) -> Vec<(String, String)> {
             "predictor_smoothing_nodes".to_string(),
             p.predictor_smoothing.to_string(),
         ),
-        ("validation".to_string(), format!("{:?}", p.validation)),
+        ("validation".to_string(), p.validation.describe(unit)),
         ("replace_final".to_string(), p.replace_final.to_string()),
         (
             "position".to_string(),
@@ -236,7 +238,6 @@ pub fn attributes(p: &PivParams) -> Vec<(String, String)> {
             "event_count".to_string(),
             "non-zero pixels in the first frame's window (summed over the pairs)".to_string(),
         ),
-        ("status_flags".to_string(), Status::legend()),
     ]
 }
 

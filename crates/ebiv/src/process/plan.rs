@@ -32,9 +32,9 @@ pub struct PlannedFields {
     pub geometry: Geometry,
     /// Field centre times, µs, ascending (camera time, as the recording stores it).
     pub times: Vec<i64>,
-    /// The origin of the run's relative times (`--time`): the first event's time stamp, or 0
-    /// with `absolute_time`.
-    pub origin_us: i64,
+    /// The camera time, µs, that `time` counts from: the first event in file order, or 0
+    /// with `absolute_time` (for [`FieldSeries::time_origin_us`](crate::field::FieldSeries)).
+    pub time_origin_us: i64,
 }
 
 impl PlannedFields {
@@ -42,8 +42,8 @@ impl PlannedFields {
     /// to …)": the field times as `--time` counts them, and as the output files store them.
     pub fn describe_times(&self) -> String {
         let (first, last) = (self.times[0], self.times[self.times.len() - 1]);
-        let relative = |t: i64| crate::units::format_us(t - self.origin_us);
-        if self.origin_us == 0 {
+        let relative = |t: i64| crate::units::format_us(t - self.time_origin_us);
+        if self.time_origin_us == 0 {
             format!(
                 "{} field(s) at camera times {first} to {last} µs",
                 self.times.len()
@@ -135,7 +135,7 @@ pub fn plan_fields(
         reader,
         geometry,
         times: steps.times(MAX_FIELDS)?,
-        origin_us: origin,
+        time_origin_us: origin,
     })
 }
 

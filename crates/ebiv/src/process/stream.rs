@@ -274,18 +274,12 @@ pub fn process_recording<E: Estimator, S: BatchSource + Send>(
     Ok((series, summary))
 }
 
-/// The processing parameters as output attributes.
+/// The processing parameters as output attributes (the writers add the software, the time
+/// basis and the status legend).
 fn run_attributes<E: Estimator>(estimator: &E, params: &ProcessParams) -> Vec<(String, String)> {
     let mut a = vec![
-        (
-            "software".to_string(),
-            format!("ebiv {}", env!("CARGO_PKG_VERSION")),
-        ),
         ("method".to_string(), estimator.name().to_string()),
-        (
-            "polarity".to_string(),
-            format!("{:?}", params.polarity).to_lowercase(),
-        ),
+        ("polarity".to_string(), params.polarity.name().to_string()),
         (
             "passes".to_string(),
             params
@@ -301,16 +295,14 @@ fn run_attributes<E: Estimator>(estimator: &E, params: &ProcessParams) -> Vec<(S
                 .join(", "),
         ),
         (
-            "field_time".to_string(),
-            "centre of the time slab (microseconds)".to_string(),
-        ),
-        (
             "position".to_string(),
             "window centroid, image coordinates: x right, y down, pixel centres at integers"
                 .to_string(),
         ),
-        ("status_flags".to_string(), crate::field::Status::legend()),
-        ("validation".to_string(), format!("{:?}", params.validation)),
+        (
+            "validation".to_string(),
+            params.validation.describe("px/ms"),
+        ),
         (
             "predictor_smoothing_nodes".to_string(),
             params.predictor_smoothing.to_string(),

@@ -243,7 +243,9 @@ settings! {
         mm_per_px: Option<f64> = None; "MM", check positive;
         /// Image point X,Y (px) of the physical origin. Default: 0,0.
         origin: Option<Point> = None; "X,Y";
-        /// Physical y axis upwards (flips y and v together).
+        /// Physical y axis upwards (flips y and v together). VTK files (.vtk) have y up in
+        /// any case, so that ParaView shows the image as the camera saw it: without y-up
+        /// they hold y = -row (mm: -y) and v positive up.
         y_up: bool = false; "";
     }
 }

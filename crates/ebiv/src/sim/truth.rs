@@ -4,10 +4,15 @@
 
 use super::flow::Flow;
 use crate::event::Geometry;
-use crate::field::FieldSeries;
+use crate::field::{FieldSeries, TimeBasis};
 
 /// The velocity of `flow` on a grid of spacing `step_px` covering the sensor (first node at
 /// `step_px / 2`), at `start_us, start_us + interval_us, …` up to `end_us` inclusive.
+///
+/// The series is marked [`FieldSeries::ground_truth`] (the writers leave out the status and
+/// the quality variables, which a sampled flow does not have) with times of
+/// [`TimeBasis::Instant`]. The caller may add a description of the flow to its attributes
+/// (e.g. [`FlowSpec::describe`](super::flow::FlowSpec::describe)).
 pub fn velocity_field(
     flow: &dyn Flow,
     geometry: Geometry,
@@ -43,6 +48,7 @@ pub fn velocity_field(
         "content".into(),
         "ground truth: Eulerian velocity of the simulated flow".into(),
     ));
-    field.attributes.push(("flow".into(), format!("{flow:?}")));
+    field.ground_truth = true;
+    field.time_basis = TimeBasis::Instant;
     field
 }

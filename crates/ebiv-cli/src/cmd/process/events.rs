@@ -21,7 +21,7 @@ pub fn run_estimator<E: Estimator>(
         mut reader,
         geometry: g,
         times,
-        ..
+        time_origin_us,
     } = planned;
     let mut params = run.process.clone();
     params.mask = run.mask_for(g)?;
@@ -43,6 +43,7 @@ pub fn run_estimator<E: Estimator>(
         })?;
     let frames = progress.finish()?;
     super::check_run_found_events(run, &summary, &described, params.polarity)?;
+    series.time_origin_us = Some(time_origin_us);
     finish_recording_run(run, &mut series, &summary, started, &reader.report())?;
     if let Some(dir) = &run.png {
         write_series_figures(&series, dir, run, frames)?;

@@ -200,7 +200,7 @@ pub fn run_events(run: &Resolved, options: &ReadOptions) -> Result<(), Error> {
         mut reader,
         geometry: g,
         times,
-        ..
+        time_origin_us,
     } = planned;
     params.piv.mask = run.mask_for(g)?;
     for pass in &params.piv.passes {
@@ -227,6 +227,7 @@ pub fn run_events(run: &Resolved, options: &ReadOptions) -> Result<(), Error> {
     })?;
     let figures = progress.finish()?;
     super::check_run_found_events(run, &summary, &described, run.frames.polarity)?;
+    series.time_origin_us = Some(time_origin_us);
     finish_recording_run(run, &mut series, &summary, started, &reader.report())?;
     if let Some(dir) = &run.png {
         write_series_figures(&series, dir, run, figures)?;

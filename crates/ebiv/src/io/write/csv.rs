@@ -1,10 +1,16 @@
-//! CSV event writer (formats.md §11): a `t,x,y,p` header line, then one event per line in
-//! the order given, t in integer µs, p as 0/1. Triggers are not stored. Read back exactly by
-//! ebiv's text reader and by `numpy.loadtxt(..., delimiter=',', skiprows=1)` or pandas.
+//! CSV event writer (formats.md §11): a `t,x,y,p` header line, then, when the sensor size is
+//! known, a comment line `# geometry: 640x480`, then one event per line in the order given,
+//! t in integer µs, p as 0/1. Triggers are not stored.
+//!
+//! ebiv's text reader takes the sensor size from the comment, so that a recording converted
+//! to CSV and back keeps it. The comment follows the header so that readers which take the
+//! first line as the column names still find them: `numpy.loadtxt(path, delimiter=',',
+//! skiprows=1)` and `numpy.genfromtxt(path, delimiter=',', names=True)` skip `#` lines by
+//! default, pandas with `read_csv(path, comment='#')`. Read back exactly by ebiv.
 
 use super::{AtomicFile, EventWriter};
 use crate::error::Result;
-use crate::event::EventBuffer;
+use crate::event::{EventBuffer, Geometry};
 use std::io::Write;
 use std::path::Path;
 
@@ -18,10 +24,14 @@ pub(crate) struct CsvWriter {
 }
 
 impl CsvWriter {
-    /// Start writing `path` (through a temporary file renamed by `finish`).
-    pub fn create(path: &Path) -> Result<Self> {
+    /// Start writing `path` (through a temporary file renamed by `finish`), with the sensor
+    /// size `geometry` in a comment line when given.
+    pub fn create(path: &Path, geometry: Option<Geometry>) -> Result<Self> {
         let mut buf = Vec::with_capacity(FLUSH_BYTES + 64);
         buf.extend_from_slice(b"t,x,y,p\n");
+        if let Some(g) = geometry {
+            buf.extend_from_slice(format!("# geometry: {}x{}\n", g.width, g.height).as_bytes());
+        }
         Ok(CsvWriter {
             file: AtomicFile::create(path)?,
             buf,
@@ -146,7 +156,7 @@ mod tests {
         let dir = tempfile::tempdir().unwrap();
         let path = dir.path().join("events.csv");
         let events = edge_events();
-        let mut w: Box<dyn EventWriter> = Box::new(CsvWriter::create(&path).unwrap());
+        let mut w: Box<dyn EventWriter> = Box::new(CsvWriter::create(&path, None).unwrap());
         w.write(&events).unwrap();
         w.write(&EventBuffer::new()).unwrap();
         w.write(&events).unwrap();
@@ -164,10 +174,29 @@ mod tests {
     }
 
     #[test]
+    fn the_sensor_size_is_kept_in_a_comment_the_reader_honours() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("events.csv");
+        let mut events = EventBuffer::new();
+        events.push(5, 639, 479, 1);
+        events.push(9, 0, 3, 0);
+        let g = Geometry::new(640, 480);
+        let mut w: Box<dyn EventWriter> = Box::new(CsvWriter::create(&path, Some(g)).unwrap());
+        w.write(&events).unwrap();
+        w.finish().unwrap();
+        let text = std::fs::read_to_string(&path).unwrap();
+        assert_eq!(text, "t,x,y,p\n# geometry: 640x480\n5,639,479,1\n9,0,3,0\n");
+        let rec = io::read_all(&path, &ReadOptions::default()).unwrap();
+        assert_eq!(rec.metadata.geometry, Some(g));
+        assert_eq!(rec.events, events);
+        assert!(rec.report.warnings.is_empty(), "{:?}", rec.report);
+    }
+
+    #[test]
     fn empty_stream_has_only_the_header() {
         let dir = tempfile::tempdir().unwrap();
         let path = dir.path().join("empty.csv");
-        let w: Box<dyn EventWriter> = Box::new(CsvWriter::create(&path).unwrap());
+        let w: Box<dyn EventWriter> = Box::new(CsvWriter::create(&path, None).unwrap());
         w.finish().unwrap();
         assert_eq!(std::fs::read_to_string(&path).unwrap(), "t,x,y,p\n");
         let rec = io::read_all(&path, &ReadOptions::default()).unwrap();
@@ -179,7 +208,7 @@ mod tests {
         let dir = tempfile::tempdir().unwrap();
         let path = dir.path().join("gone.csv");
         {
-            let mut w = CsvWriter::create(&path).unwrap();
+            let mut w = CsvWriter::create(&path, None).unwrap();
             w.write(&edge_events()).unwrap();
         }
         assert!(!path.exists());

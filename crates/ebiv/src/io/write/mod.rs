@@ -57,7 +57,8 @@ pub fn format_for_path(path: &Path) -> Result<Format> {
 /// Create a writer for `path` in `format` (see [`format_for_path`]; `.raw` means EVT 3.0,
 /// and [`Format::Evt2`]/[`Format::Evt21`] select the other RAW encodings; AEDAT 4.0 is written
 /// with LZ4, use [`Aedat4Writer::create`] for another compression). `geometry` is stored where
-/// the format has a place for it and is required by EVT 2.x, EVT 3.0 and AEDAT 4.0. The
+/// the format has a place for it (in CSV as a `# geometry: WxH` comment) and is required by
+/// EVT 2.x, EVT 3.0 and AEDAT 4.0. The
 /// writer may be moved to another thread (`ebiv simulate` writes beside the simulation).
 pub fn create(
     path: &Path,
@@ -81,7 +82,7 @@ pub fn create(
             geometry,
             Aedat4Compression::Lz4,
         )?)),
-        Format::Text => Ok(Box::new(csv::CsvWriter::create(path)?)),
+        Format::Text => Ok(Box::new(csv::CsvWriter::create(path, geometry)?)),
         Format::Npy => Ok(Box::new(numpy::NpyWriter::create(path)?)),
         Format::Npz => Ok(Box::new(numpy::NpzWriter::create(path)?)),
         other => Err(Error::parameter(

@@ -3,8 +3,8 @@
 //! synthetic-PIV generators of Cai et al. do (sensor-model.md §5, "CFD/DNS"). Particle paths
 //! are integrated with the adaptive Dormand–Prince scheme (sensor-model.md §6, "gridded").
 //!
-//! Files: CSV with the header `t_us,x,y,u,v` (the columns ebiv writes for fields and truth;
-//! rows in any order) and NetCDF classic files with `u`, `v` over (time, y, x) or (y, x) and
+//! Files: CSV with the columns `t_us,x,y,u,v` or, as ebiv writes fields and truth,
+//! `t_us,x_px,y_px,u_px_ms,v_px_ms` (rows in any order) and NetCDF classic files with `u`, `v` over (time, y, x) or (y, x) and
 //! coordinate variables `x`, `y` and optionally `time` (see [`GriddedFlow::from_netcdf`]).
 
 mod netcdf;
@@ -208,8 +208,9 @@ impl GriddedFlow {
         Self::from_csv_str(&text, &path.display().to_string())
     }
 
-    /// Parse CSV text: a header naming the columns `t_us`, `x`, `y`, `u`, `v` (any order;
-    /// other columns are ignored), then one row per grid point and time, in any order. Blank
+    /// Parse CSV text: a header naming the columns `t_us`, `x`, `y`, `u`, `v` (or, with
+    /// their units as ebiv's field and truth files name them, `x_px`, `y_px`, `u_px_ms`,
+    /// `v_px_ms`; any order; other columns are ignored), then one row per grid point and time, in any order. Blank
     /// lines and lines starting with `#` are skipped. Every combination of the distinct
     /// `t_us`, `x` and `y` values must appear exactly once; `u`, `v` may be `NaN`. `context`
     /// (the file name) prefixes every error.
@@ -235,14 +236,19 @@ impl GriddedFlow {
             .split(',')
             .map(|s| s.trim().trim_matches('"'))
             .collect();
+        // The same columns with their units, as ebiv's CSV writer names them.
+        const WITH_UNITS: [&str; 5] = ["t_us", "x_px", "y_px", "u_px_ms", "v_px_ms"];
         let mut column = [0usize; 5];
-        for (slot, want) in column.iter_mut().zip(COLUMNS) {
-            *slot = names.iter().position(|n| *n == want).ok_or_else(|| {
-                parse_err(
-                    header_line,
-                    format!("the header has no column `{want}` (expected `t_us,x,y,u,v`)"),
-                )
-            })?;
+        for ((slot, want), alias) in column.iter_mut().zip(COLUMNS).zip(WITH_UNITS) {
+            *slot = names
+                .iter()
+                .position(|n| *n == want || *n == alias)
+                .ok_or_else(|| {
+                    parse_err(
+                        header_line,
+                        format!("the header has no column `{want}` (expected `t_us,x,y,u,v`)"),
+                    )
+                })?;
         }
 
         let mut rows: Vec<[f64; 5]> = Vec::new();

@@ -167,6 +167,14 @@ impl Check<'_> {
 }
 
 impl FlowSpec {
+    /// The flow as a one-line TOML inline table, as in a scenario file
+    /// (`{ type = "uniform", u = 2.0 }`), for file metadata.
+    pub fn describe(&self) -> String {
+        toml::Value::try_from(self)
+            .map(|v| v.to_string())
+            .unwrap_or_else(|e| format!("(not describable: {e})"))
+    }
+
     /// Validate the parameters and build the flow. Errors name the offending key; a gridded
     /// flow's file errors name the file.
     pub fn build(&self) -> Result<Box<dyn Flow>> {

@@ -451,3 +451,20 @@ fn netcdf_header_counts_beyond_the_file_are_rejected_before_allocating() {
     let message = GriddedFlow::open(&path).unwrap_err().to_string();
     assert!(message.contains("CDF-5"), "{message}");
 }
+
+#[test]
+fn truth_csv_written_by_ebiv_reads_back_with_its_unit_named_columns() {
+    let flow = crate::sim::flow::Uniform { u: 1.5, v: -0.5 };
+    let geometry = crate::event::Geometry::new(64, 32);
+    let truth = crate::sim::truth::velocity_field(&flow, geometry, 16.0, 0, 2000, 1000);
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("truth.csv");
+    crate::export::write_field_csv(&truth, &path).unwrap();
+    let text = std::fs::read_to_string(&path).unwrap();
+    assert!(
+        text.starts_with("t_us,x_px,y_px,u_px_ms,v_px_ms\n"),
+        "{text}"
+    );
+    let read = GriddedFlow::open(&path).unwrap();
+    assert_eq!(read.velocity(20.0, 10.0, 500.0), (1.5, -0.5));
+}
