@@ -241,6 +241,9 @@ fn attributes(params: &EventPivParams) -> Vec<(String, String)> {
             t.source.describe()
         ),
     };
+    // The exposure the frames are built with: the setting for regular frames, the pulse
+    // period (dark gap to dark gap) for one frame per pulse, as the plan uses it.
+    let exposure_us = params.plan(0).exposure_us;
     let mut a = vec![
         (
             "method".to_string(),
@@ -256,7 +259,7 @@ fn attributes(params: &EventPivParams) -> Vec<(String, String)> {
             format!(
                 "{}, exposure {} us, polarity {}, splat sigma {} px",
                 f.kind.name(),
-                f.exposure_us,
+                exposure_us,
                 f.polarity.name(),
                 f.splat_sigma
             ),
@@ -320,6 +323,14 @@ mod tests {
             assert!(phase < 0.6 || period - phase < 0.6, "frame {k} at {s}");
         }
         assert_eq!(plan.exposure_us, 333);
+        // The output attributes state the exposure the frames were built with (the period),
+        // not the regular-frame setting (1000 µs here).
+        let kind = attributes(&p)
+            .into_iter()
+            .find(|(k, _)| k == "frame_kind")
+            .unwrap()
+            .1;
+        assert!(kind.contains("exposure 333 us"), "{kind}");
         // Three frames: the field time is the centre of their span, near the request.
         let centre = (plan.starts[0] as f64 + plan.starts[2] as f64 + period) / 2.0;
         assert!((plan.t0_us as f64 - centre).abs() <= 1.0);
