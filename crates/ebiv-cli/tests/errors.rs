@@ -203,3 +203,106 @@ fn files_named_raw_that_are_not_recordings_say_what_they_are() {
     let err = fails(&["info", s(&binary)]);
     assert!(err.contains("--raw-encoding"), "{err}");
 }
+
+/// Run `ebiv args`, send SIGINT once `wait_for` exists, and return the exit status and
+/// standard error (`None` if the run finished before `wait_for` appeared).
+#[cfg(target_os = "linux")]
+fn interrupt_when(args: &[&str], wait_for: &Path) -> Option<(std::process::ExitStatus, String)> {
+    let mut child = std::process::Command::new(env!("CARGO_BIN_EXE_ebiv"))
+        .args(args)
+        .stdout(std::process::Stdio::null())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    let deadline = std::time::Instant::now() + std::time::Duration::from_secs(120);
+    while !wait_for.exists() {
+        if child.try_wait().unwrap().is_some() {
+            return None;
+        }
+        if std::time::Instant::now() > deadline {
+            child.kill().unwrap();
+            panic!("{} never appeared", wait_for.display());
+        }
+        std::thread::sleep(std::time::Duration::from_millis(10));
+    }
+    // SAFETY: `kill` on our own child's pid with a valid signal.
+    assert_eq!(
+        unsafe { libc::kill(child.id() as libc::pid_t, libc::SIGINT) },
+        0
+    );
+    let out = child.wait_with_output().unwrap();
+    Some((out.status, stderr(&out)))
+}
+
+/// Every PNG in `dir` decodes (none is half-written), and how many there are.
+fn whole_pngs(dir: &Path) -> usize {
+    let mut n = 0;
+    for entry in std::fs::read_dir(dir).unwrap() {
+        let path = entry.unwrap().path();
+        let name = path.file_name().unwrap().to_string_lossy().into_owned();
+        assert!(!name.ends_with(".partial"), "unfinished file {name}");
+        if name.ends_with(".png") {
+            image::open(&path).unwrap_or_else(|e| panic!("{name} is not a whole PNG: {e}"));
+            n += 1;
+        }
+    }
+    n
+}
+
+/// Ctrl-C during `process` stops it after a field: no field file, whole figures, and the
+/// process ends by SIGINT.
+#[cfg(target_os = "linux")]
+#[test]
+fn an_interrupted_process_run_leaves_no_field_file_and_whole_figures() {
+    use std::os::unix::process::ExitStatusExt;
+    let Some(wall) = data(WALL) else { return };
+    let dir = tempfile::tempdir().unwrap();
+    let (out, figures) = (dir.path().join("a.nc"), dir.path().join("fig"));
+    let args = [
+        "process",
+        s(&wall),
+        "--time",
+        "5ms:15ms:20us",
+        "-o",
+        s(&out),
+        "--png",
+        s(&figures),
+    ];
+    let Some((status, err)) = interrupt_when(&args, &figures.join("field_0001.png")) else {
+        panic!("500 fields with figures finished before an interrupt")
+    };
+    assert_eq!(status.signal(), Some(libc::SIGINT), "{status:?}: {err}");
+    assert!(err.contains("interrupted"), "{err}");
+    assert!(!out.exists());
+    let left: Vec<_> = std::fs::read_dir(dir.path())
+        .unwrap()
+        .map(|e| e.unwrap().file_name())
+        .collect();
+    assert_eq!(left, ["fig"], "only the figures folder is left");
+    let n = whole_pngs(&figures);
+    assert!((2..500).contains(&n), "{n} figures");
+}
+
+/// Ctrl-C during `frames` stops after a whole frame, and frames.csv lists the frames written.
+#[cfg(target_os = "linux")]
+#[test]
+fn an_interrupted_frames_run_lists_its_whole_frames() {
+    use std::os::unix::process::ExitStatusExt;
+    let Some(raw) = data(EVT2) else { return };
+    let dir = tempfile::tempdir().unwrap();
+    let frames = dir.path().join("f");
+    let args = ["frames", s(&raw), "--every", "10us", "-o", s(&frames)];
+    let Some((status, err)) = interrupt_when(&args, &frames.join("frame_000001.png")) else {
+        panic!("4900 frames finished before an interrupt")
+    };
+    assert_eq!(status.signal(), Some(libc::SIGINT), "{status:?}: {err}");
+    assert!(err.contains("are complete"), "{err}");
+    let n = whole_pngs(&frames);
+    let listed = std::fs::read_to_string(frames.join("frames.csv")).unwrap();
+    assert_eq!(
+        listed.lines().count(),
+        n + 1,
+        "header and one line per frame"
+    );
+    assert!(n < 4900);
+}

@@ -28,7 +28,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         &estimator,
         &run.process,
         &plan.times,
-        &mut |_| {},
+        &mut |_| Ok(()),
     )?;
     ebiv::export::write_field(&series, &run.output)?;
     println!(

@@ -186,7 +186,7 @@ fn process_with<E: Estimator>(
         estimator,
         &params,
         times,
-        &mut |_| {},
+        &mut |_| Ok(()),
     )
     .unwrap()
     .0

@@ -30,9 +30,11 @@ fn passes() -> Vec<GridSpec> {
 
 fn event_piv(sim: &Simulation, events: &EventBuffer, params: &EventPivParams) -> FieldSeries {
     let mut source = MemorySource::new(events);
-    piv_events(&mut source, sim.geometry, params, &FIELD_TIMES, &mut |_| {})
-        .unwrap()
-        .0
+    piv_events(&mut source, sim.geometry, params, &FIELD_TIMES, &mut |_| {
+        Ok(())
+    })
+    .unwrap()
+    .0
 }
 
 fn estimate<E: Estimator>(e: &E, sim: &Simulation, events: &EventBuffer) -> FieldSeries {
@@ -47,7 +49,7 @@ fn estimate<E: Estimator>(e: &E, sim: &Simulation, events: &EventBuffer) -> Fiel
         e,
         &params,
         &FIELD_TIMES,
-        &mut |_| {},
+        &mut |_| Ok(()),
     )
     .unwrap()
     .0

@@ -197,13 +197,16 @@ fn measure_with(
     dir: &Path,
     run: impl FnOnce(
         &mut MemorySource,
-        &mut dyn FnMut(&FieldDone),
+        &mut dyn FnMut(&FieldDone) -> Result<(), ebiv::Error>,
     ) -> Result<(FieldSeries, RunSummary), ebiv::Error>,
 ) -> Result<ErrorStats, ebiv::Error> {
     let started = Instant::now();
     let bar = count_bar(FIELD_TIMES.len() as u64, name);
     let mut source = MemorySource::new(events);
-    let (mut series, _) = run(&mut source, &mut |d| bar.set_position(d.done as u64))?;
+    let (mut series, _) = run(&mut source, &mut |d| {
+        bar.set_position(d.done as u64);
+        Ok(())
+    })?;
     bar.finish_and_clear();
     let seconds = started.elapsed().as_secs_f64();
     series.attributes.push((

@@ -150,12 +150,13 @@ impl EventPivParams {
 /// the pulses in pulsed mode): for each field the frames of [`EventPivParams::plan`] are
 /// rebuilt from the events in memory and evaluated by [`piv_ensemble`]; velocities in px/ms.
 /// Streams `source` once, so memory is bounded by one field's events.
+/// `on_field` is called after every field; an error from it ends the run and is returned.
 pub fn piv_events<S: BatchSource>(
     source: &mut S,
     geometry: Geometry,
     params: &EventPivParams,
     times_us: &[i64],
-    on_field: &mut dyn FnMut(&FieldDone),
+    on_field: &mut dyn FnMut(&FieldDone) -> Result<()>,
 ) -> Result<(FieldSeries, RunSummary)> {
     params.check()?;
     let pixels = geometry.width as u64 * geometry.height as u64;
@@ -222,7 +223,7 @@ pub fn piv_events<S: BatchSource>(
             t0_us: plan.t0_us,
             field: &field,
             events,
-        });
+        })?;
     }
     Ok((series, summary))
 }

@@ -114,12 +114,13 @@ pub struct ImageFieldDone<'a> {
 }
 
 /// The field series of `frames` (loaded from `paths`, for the attributes), one field per
-/// pair or one for all; `on_field` is called after each field.
+/// pair or one for all; `on_field` is called after each field, and an error from it ends the
+/// run and is returned.
 pub fn piv_image_series(
     frames: &[Frame],
     paths: &[PathBuf],
     params: &ImageSeriesParams,
-    on_field: &mut dyn FnMut(&ImageFieldDone),
+    on_field: &mut dyn FnMut(&ImageFieldDone) -> Result<()>,
 ) -> Result<(FieldSeries, RunSummary)> {
     let pairs = image_pairs(frames.len(), params.sequence)?;
     let groups: Vec<Vec<(usize, usize)>> = if params.ensemble {
@@ -156,7 +157,7 @@ pub fn piv_image_series(
             index,
             pairs: group,
             field: &field,
-        });
+        })?;
     }
     let mut series = series.expect("at least one pair");
     series.quantity = if dt_ms.is_some() {

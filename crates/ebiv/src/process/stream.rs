@@ -193,14 +193,15 @@ impl SlidingEvents {
 /// Process `source` at the field times `times_us` (sorted ascending, duplicates dropped):
 /// the slab of each time is built from the events read so far, then evaluated by
 /// [`process_slab`]. Reading and binning the next field's events overlap with the evaluation
-/// of the current one. `on_field` is called after every field.
+/// of the current one. `on_field` is called after every field; an error from it (a caller's
+/// cancellation, a figure that cannot be written) ends the run and is returned.
 pub fn process_recording<E: Estimator, S: BatchSource + Send>(
     source: &mut S,
     geometry: Geometry,
     estimator: &E,
     params: &ProcessParams,
     times_us: &[i64],
-    on_field: &mut dyn FnMut(&FieldDone),
+    on_field: &mut dyn FnMut(&FieldDone) -> Result<()>,
 ) -> Result<(FieldSeries, RunSummary)> {
     let grids = params.grids(geometry)?;
     let last = grids.last().expect("grids checked non-empty");
@@ -264,7 +265,7 @@ pub fn process_recording<E: Estimator, S: BatchSource + Send>(
             t0_us: t0,
             field: &result.field,
             events: sliding.events(),
-        });
+        })?;
         slab = match (built?, following) {
             (Some(next), _) => Some(next),
             (None, Some(t1)) => Some(next_slab(&mut sliding, t1, t1 - before)?),

@@ -94,7 +94,7 @@ fn time_method<E: Estimator>(
             estimator,
             params,
             &times,
-            &mut |_| {},
+            &mut |_| Ok(()),
         )?;
         Ok::<_, ebiv::Error>((started.elapsed().as_secs_f64(), run))
     };

@@ -39,7 +39,8 @@ pub fn run_estimator<E: Estimator>(
     let mut progress = FieldProgress::new(run, g, times.len(), estimator.time_extent_us());
     let (mut series, summary) =
         process_recording(&mut reader, g, estimator, &params, &times, &mut |d| {
-            progress.on_field(d)
+            progress.on_field(d);
+            crate::interrupt::check(&run.output)
         })?;
     let frames = progress.finish()?;
     super::check_run_found_events(run, &summary, &described, params.polarity)?;

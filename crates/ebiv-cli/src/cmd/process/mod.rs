@@ -47,6 +47,9 @@ pub fn run(args: &ProcessArgs) -> Result<(), ebiv::Error> {
     let run = settings.resolve()?;
     super::check_output_path(&run.output, &ebiv::export::FIELD_EXTENSIONS)?;
     let options = args.input.read_options()?;
+    // Ctrl-C stops the run after the field being evaluated: the field file is not written
+    // (it is written whole at the end, or not at all), and every figure on disk is complete.
+    let _catch = crate::interrupt::catch();
     match (run.method, &run.source) {
         (Method::CorrSum, _) => events::run_estimator(
             &run,

@@ -63,11 +63,11 @@ pub fn run_images(run: &Resolved) -> Result<(), Error> {
     let bar = count_bar(fields as u64, "fields");
     let started = Instant::now();
     let mut figures = Vec::new();
-    let mut figure_error = None;
     let (mut series, summary) = piv_image_series(&frames, &paths, &params, &mut |done| {
         bar.inc(1);
-        let (Some(dir), None) = (&run.png, &figure_error) else {
-            return;
+        crate::interrupt::check(&run.output)?;
+        let Some(dir) = &run.png else {
+            return Ok(());
         };
         let (a, b) = done.pairs[0];
         let style = VectorMapStyle {
@@ -80,16 +80,13 @@ pub fn run_images(run: &Resolved) -> Result<(), Error> {
             ..VectorMapStyle::default()
         };
         let figure = vector_map(done.field, g, Some(&frame_image(&frames[a])), &style);
-        match save_png(&figure, &dir.join(format!("field_{:04}.png", done.index))) {
-            Err(e) => figure_error = Some(e),
-            Ok(()) if figures.len() < MAX_GIF_FRAMES => figures.push(figure),
-            Ok(()) => {}
+        save_png(&figure, &dir.join(format!("field_{:04}.png", done.index)))?;
+        if figures.len() < MAX_GIF_FRAMES {
+            figures.push(figure);
         }
+        Ok(())
     })?;
     bar.finish_and_clear();
-    if let Some(e) = figure_error {
-        return Err(e);
-    }
     let seconds = started.elapsed().as_secs_f64();
     series.calibration = run.calibration;
     ebiv::export::write_field(&series, &run.output)?;
@@ -223,7 +220,8 @@ pub fn run_events(run: &Resolved, options: &ReadOptions) -> Result<(), Error> {
     let started = Instant::now();
     let mut progress = FieldProgress::new(run, g, times.len(), (before, after));
     let (mut series, summary) = piv_events(&mut reader, g, &params, &times, &mut |d| {
-        progress.on_field(d)
+        progress.on_field(d);
+        crate::interrupt::check(&run.output)
     })?;
     let figures = progress.finish()?;
     super::check_run_found_events(run, &summary, &described, run.frames.polarity)?;
