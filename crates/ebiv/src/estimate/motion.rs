@@ -422,7 +422,7 @@ impl Estimator for ContrastMaximization {
                 "estimator".into(),
                 "motion compensation (contrast maximisation)".into(),
             ),
-            ("slab_us".into(), format!("{} us", p.slab_us)),
+            ("slab".into(), format!("{} us", p.slab_us)),
             ("objective".into(), p.objective.name().into()),
             (
                 "search_range".into(),
