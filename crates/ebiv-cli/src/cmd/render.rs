@@ -2,18 +2,22 @@
 
 use crate::input::InputArgs;
 use clap::Args;
-use ebiv::render::{save_png, time_coded_image, upscale, EventRateMap};
+use ebiv::render::{
+    event_figure, figure_format, save_figure, time_coded_image, EventRateMap, ImageFigureStyle,
+    MAX_PIXEL_SCALE,
+};
 use ebiv::units::format_us;
 use ebiv::{EventBuffer, Geometry, PolaritySelection};
 use std::path::{Path, PathBuf};
 
 /// Draw the events of an interval colour-coded by time relative to T0 (past blue, present
-/// white, future red, as in the EBIV paper's event images), or an event-rate map (--rate).
+/// white, future red, as in the EBIV paper's event images), or an event-rate map (--rate),
+/// as a figure with axes in sensor pixels, a colour bar and a caption giving the time.
 #[derive(Debug, Args)]
 pub struct RenderArgs {
     /// The recording.
     pub file: PathBuf,
-    /// The PNG to write.
+    /// The figure to write: .png, .jpg (.jpeg), .tif (.tiff) or .bmp, by extension.
     #[arg(short, long)]
     pub output: PathBuf,
     /// Centre time of the image, from the first event (e.g. `25ms`); default: the first
@@ -33,11 +37,21 @@ pub struct RenderArgs {
     /// Polarities drawn: pos, neg or both.
     #[arg(long, default_value = "both", value_parser = super::convert::parse_polarity)]
     pub polarity: PolaritySelection,
-    /// Enlarge by this integer factor (default: so that the image is at least 640 px wide).
-    #[arg(long)]
+    /// Enlarge the sensor image by this whole factor, 1 to 16 (default: so that it is at
+    /// least 640 px wide).
+    #[arg(long, value_name = "N", allow_hyphen_values = true, value_parser = parse_scale)]
     pub scale: Option<u32>,
     #[command(flatten)]
     pub input: InputArgs,
+}
+
+/// Parse `--scale`: a whole number from 1 to [`MAX_PIXEL_SCALE`].
+fn parse_scale(text: &str) -> Result<u32, String> {
+    let bad = || format!("--scale must be a whole number from 1 to {MAX_PIXEL_SCALE}, got {text}");
+    match text.trim().parse::<i64>() {
+        Ok(k) if (1..=MAX_PIXEL_SCALE as i64).contains(&k) => Ok(k as u32),
+        _ => Err(bad()),
+    }
 }
 
 pub fn run(args: &RenderArgs) -> Result<(), ebiv::Error> {
@@ -47,6 +61,8 @@ pub fn run(args: &RenderArgs) -> Result<(), ebiv::Error> {
             "the interval must be longer than 0 µs",
         ));
     }
+    // Before reading anything: the output format and the enlargement.
+    figure_format(&args.output, "output")?;
     let options = args.input.read_options()?;
     let origin = if args.absolute_time {
         0
@@ -61,10 +77,12 @@ pub fn run(args: &RenderArgs) -> Result<(), ebiv::Error> {
     } else {
         (t0 - args.dt / 2, t0 + args.dt - args.dt / 2)
     };
-    let scale = |g: Geometry| {
-        args.scale
-            .unwrap_or(640u32.div_ceil(g.width).clamp(1, 8))
-            .clamp(1, 16)
+    let name = args.file.file_name().unwrap_or_default().to_string_lossy();
+    let polarity = format!("{:?}", args.polarity).to_lowercase();
+    let style = |what: &str| ImageFigureStyle {
+        title: Some(format!("{name}: {what}, polarity {polarity}")),
+        pixel_scale: args.scale,
+        time_origin_us: origin,
     };
     if args.rate {
         let geometry = match ebiv::io::open(&args.file, &options)?.metadata().geometry {
@@ -78,14 +96,16 @@ pub fn run(args: &RenderArgs) -> Result<(), ebiv::Error> {
                 data_geometry(stats.x_range.map(|r| r.1), stats.y_range.map(|r| r.1))
             }
         };
+        let style = style("event rate");
+        style.scale_for(geometry.width, geometry.height)?;
         let mut map = EventRateMap::new(geometry);
         super::stream_file(&args.file, &options, |_, batch| {
             map.add(batch, start, end, args.polarity);
             Ok(!batch.t.iter().all(|&t| t >= end) || batch.is_empty())
         })?;
-        let duration = (!whole_file).then_some(args.dt);
-        let img = map.render(duration);
-        save_png(&upscale(&img.image, scale(geometry)), &args.output)?;
+        let interval = (!whole_file).then_some((start, end));
+        let img = map.render(interval, &style)?;
+        save_figure(&img.image, &args.output)?;
         eprintln!(
             "wrote {}: event rate of {} active pixels, colour bar 0 .. {:.0} events/s per pixel (mean {:.1})",
             args.output.display(),
@@ -96,7 +116,7 @@ pub fn run(args: &RenderArgs) -> Result<(), ebiv::Error> {
     } else {
         let (events, geometry) = collect(&args.file, &options, start, end)?;
         let img = time_coded_image(&events, geometry, t0, args.dt / 2, args.polarity);
-        save_png(&upscale(&img.image, scale(geometry)), &args.output)?;
+        save_figure(&event_figure(&img, &style("events"))?, &args.output)?;
         eprintln!(
             "wrote {}: {} events within {} of t0 = {} µs{}; past blue, t0 white, future red",
             args.output.display(),
@@ -151,4 +171,84 @@ fn data_geometry(x_max: Option<u16>, y_max: Option<u16>) -> Geometry {
     let h = y_max.map_or(1, |y| y as u32 + 1);
     eprintln!("note: the file does not state its size; drawing {w}x{h} (pass --geometry)");
     Geometry::new(w, h)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use clap::Parser;
+
+    #[derive(Parser)]
+    struct Cli {
+        #[command(flatten)]
+        render: RenderArgs,
+    }
+
+    fn parse(args: &[&str]) -> Result<RenderArgs, String> {
+        Cli::try_parse_from(std::iter::once("render").chain(args.iter().copied()))
+            .map(|c| c.render)
+            .map_err(|e| e.to_string())
+    }
+
+    #[test]
+    fn scale_must_be_a_whole_number_from_1_to_16() {
+        for bad in ["0", "-1", "17", "1000000", "2.5", "x"] {
+            let e = parse(&["rec.raw", "-o", "a.png", "--scale", bad])
+                .err()
+                .unwrap_or_else(|| panic!("--scale {bad} accepted"));
+            assert!(e.contains("--scale") && e.contains("1 to 16"), "{e}");
+        }
+        for (text, k) in [("1", 1), ("16", 16)] {
+            let args = parse(&["rec.raw", "-o", "a.png", "--scale", text]).unwrap();
+            assert_eq!(args.scale, Some(k));
+        }
+        assert_eq!(parse(&["rec.raw", "-o", "a.png"]).unwrap().scale, None);
+    }
+
+    /// A 64 × 48 recording of a particle moving right, 1 px per 100 µs.
+    fn recording(dir: &Path) -> PathBuf {
+        let path = dir.join("rec.csv");
+        let mut text = String::from("%geometry:64,48\n");
+        for i in 0..40 {
+            text.push_str(&format!("{},20,1,{}\n", 10 + i, 1000 + 100 * i));
+        }
+        std::fs::write(&path, text).unwrap();
+        path
+    }
+
+    #[test]
+    fn figures_are_written_in_the_format_the_output_names() {
+        let dir = tempfile::tempdir().unwrap();
+        let rec = recording(dir.path());
+        for (name, rate, magic) in [
+            ("events.jpg", false, &[0xFF, 0xD8, 0xFF][..]),
+            ("rate.jpeg", true, &[0xFF, 0xD8, 0xFF][..]),
+            ("events.png", false, &b"\x89PNG"[..]),
+        ] {
+            let out = dir.path().join(name);
+            let mut args = vec![rec.to_str().unwrap(), "-o", out.to_str().unwrap()];
+            args.extend(["--dt", "2ms", "--scale", "10"]);
+            if rate {
+                args.push("--rate");
+            }
+            run(&parse(&args).unwrap()).unwrap();
+            let bytes = std::fs::read(&out).unwrap();
+            assert!(bytes.starts_with(magic), "{name}: {:02x?}", &bytes[..4]);
+            // The figure: the 640 × 480 plot with axes, colour bar and caption around it.
+            let (w, h) = image::image_dimensions(&out).unwrap();
+            assert!(w > 640 + 100 && h > 480 + 80, "{name}: {w}x{h}");
+        }
+        let out = dir.path().join("events.gif");
+        let args = [rec.to_str().unwrap(), "-o", out.to_str().unwrap()];
+        let e = run(&parse(&args).unwrap()).unwrap_err().to_string();
+        assert!(e.contains(".png") && e.contains(".jpg"), "{e}");
+        assert!(!out.exists());
+        // An enlargement that makes the figure too large is refused naming the flag.
+        let out = dir.path().join("big.png");
+        let args = [rec.to_str().unwrap(), "-o", out.to_str().unwrap()];
+        let mut big = parse(&args).unwrap();
+        big.scale = Some(400);
+        let e = run(&big).unwrap_err().to_string();
+        assert!(e.contains("scale"), "{e}");
+    }
 }

@@ -2,7 +2,9 @@
 //! range and one arrow scale, so frames compare, then encoded with a fixed palette.
 
 use super::palette::{cell, median_cut};
-use super::vector_map::{auto_range, auto_scale, magnitudes, vector_map, VectorMapStyle};
+use super::vector_map::{
+    arrow_stride, auto_range, auto_scale, magnitudes, vector_map, VectorMapStyle,
+};
 use crate::error::{Error, Result};
 use crate::event::Geometry;
 use crate::field::FieldSeries;
@@ -98,7 +100,8 @@ pub fn series_animation(
         common.magnitude_range = Some(auto_range(&mags));
     }
     if common.scale.is_none() {
-        common.scale = Some(auto_scale(&mags, &series.x, &series.y, geometry));
+        let stride = arrow_stride(&series.x, &series.y, geometry, style);
+        common.scale = Some(auto_scale(&mags, &series.x, &series.y, geometry) * stride as f64);
     }
     (0..series.t_us.len())
         .into_par_iter()
@@ -146,24 +149,58 @@ mod tests {
         assert!(write_gif(&odd, 100, &path).is_err());
     }
 
-    /// Writes a sample animation to `$EBIV_RENDER_SAMPLES` (when set).
+    /// The sample animation: a Lamb–Oseen vortex whose strength swells and fades over 8
+    /// frames. Checks that every frame is a full vector map of one size with a colour bar,
+    /// that the frames share one arrow scale (the strong frames draw more arrow than the weak
+    /// ones) and that the titles give the time; writes the GIF and one frame to
+    /// `$EBIV_RENDER_SAMPLES` when set, for looking at.
     #[test]
     fn sample_animation() {
-        let Some(dir) = std::env::var_os("EBIV_RENDER_SAMPLES") else {
-            return;
-        };
+        use crate::render::axes::probe::{colour_bar_column, ink_in, plot_frame};
+        use crate::render::inferno;
         let base = super::super::vector_map::tests::lamb_oseen(320.0, 240.0, 16.0, 1.5, 40.0);
         let mut series = FieldSeries::on_grid(base.x.clone(), base.y.clone());
-        for t in 0..8 {
+        let strength: Vec<f32> = (0..8).map(|t| 0.5 + 0.5 * (t as f32 * 0.8).cos()).collect();
+        for (t, a) in strength.iter().enumerate() {
             let mut f = base.clone();
-            let a = 0.5 + 0.5 * (t as f32 * 0.8).cos();
             f.u.iter_mut().for_each(|u| *u *= a);
             f.v.iter_mut().for_each(|v| *v *= a);
-            series.push(t * 2500, &f).unwrap();
+            series.push(t as i64 * 2500, &f).unwrap();
         }
         let frames = series_animation(&series, Geometry::new(320, 240), &Default::default());
-        let dir = std::path::PathBuf::from(dir);
-        write_gif(&frames, 250, &dir.join("vortex.gif")).unwrap();
-        crate::render::save_png(&frames[3], &dir.join("vortex_frame3.png")).unwrap();
+        assert_eq!(frames.len(), 8);
+        let size = frames[0].dimensions();
+        assert!(size.0 > 960 && size.1 > 720, "{size:?}");
+        // Light grey to white pixels inside the plot frame: the arrows' bodies.
+        let arrow_pixels = |img: &RgbImage| {
+            let (l, t, r, b) = plot_frame(img);
+            image::imageops::crop_imm(img, l + 1, t + 1, r - l - 1, b - t - 1)
+                .to_image()
+                .pixels()
+                .filter(|p| p.0.iter().all(|&c| c >= 140) && p.0[0].abs_diff(p.0[2]) <= 10)
+                .count()
+        };
+        for (t, frame) in frames.iter().enumerate() {
+            assert_eq!(frame.dimensions(), size, "frame {t}");
+            assert!(colour_bar_column(frame, inferno(1.0), inferno(0.0)).is_some());
+        }
+        let (strong, weak) = (arrow_pixels(&frames[0]), arrow_pixels(&frames[4]));
+        assert!(
+            strength[4] < 0.01 && strong > 5 * weak,
+            "{strong} vs {weak}"
+        );
+        // The titles differ ("t = 0.000 ms", "t = 2.500 ms").
+        let title = |img: &RgbImage| -> Vec<u8> {
+            image::imageops::crop_imm(img, 0, 0, size.0, 40)
+                .to_image()
+                .into_raw()
+        };
+        assert_ne!(title(&frames[0]), title(&frames[1]));
+        assert!(ink_in(&frames[1], 0, 0, size.0, 40) > 100);
+        if let Some(dir) = std::env::var_os("EBIV_RENDER_SAMPLES") {
+            let dir = std::path::PathBuf::from(dir);
+            write_gif(&frames, 250, &dir.join("vortex.gif")).unwrap();
+            crate::render::save_png(&frames[3], &dir.join("vortex_frame3.png")).unwrap();
+        }
     }
 }

@@ -2,7 +2,7 @@
 //! the standard diagnosis of peak locking (Christensen 2004, Exp. Fluids 36:484–497;
 //! `docs/algorithms.md` §16.7): without locking the fractional parts are uniform on [0, 1).
 
-use super::axes::{Axes, GAP, INK, TICK};
+use super::axes::{Axes, GAP, INK, PAD, TEXT, TICK};
 use super::draw::{fill_rect, line, Colour, Rect};
 use super::font::{draw_text, text_height, Align};
 use crate::field::Status;
@@ -140,15 +140,41 @@ impl Default for HistogramStyle {
     }
 }
 
-const PAD: i64 = 14;
-const TEXT: u32 = 2;
 const PANEL_W: f64 = 380.0;
 const PANEL_H: f64 = 260.0;
 const BAR: Colour = [70, 118, 178];
 
+/// The peak-locking index that `n` values with uniformly distributed fractional parts give
+/// through sampling noise alone, about `2·sqrt(10/n)` (each of the 10 bins holds n/10 ± its
+/// square root); NaN without values.
+pub fn peak_locking_noise(n: u64) -> f64 {
+    if n == 0 {
+        f64::NAN
+    } else {
+        (2.0 * (10.0 / n as f64).sqrt()).min(1.0)
+    }
+}
+
+/// The caption of the fractional-displacement panel: what the peak-locking index is, what
+/// it would be from sampling noise alone with `n` values, and when it means locking (a
+/// narrow displacement distribution is not flat modulo 1 even when measured exactly).
+pub fn peak_locking_caption(n: u64) -> [String; 2] {
+    [
+        "Peak-locking index = 1 - lowest/tallest bar of the fractional displacement: \
+         0 flat, 1 all at whole pixels."
+            .into(),
+        format!(
+            "Noise alone gives about {:.2} here (2·sqrt(10/n)). Far above that, tall bars at \
+             0 and 1 with displacements spread over pixels: peak locking.",
+            peak_locking_noise(n)
+        ),
+    ]
+}
+
 /// Three panels side by side: histograms of the finite `u` and `v` values, and of the
 /// fractional part of the displacement (u and v together, 10 bins) with the uniform level
-/// and the [`peak_locking_index`]. Pass valid values only (see [`valid_components`]).
+/// and the [`peak_locking_index`], and a caption explaining the index (see
+/// [`peak_locking_caption`]). Pass valid values only (see [`valid_components`]).
 pub fn velocity_histograms(u: &[f32], v: &[f32], style: &HistogramStyle) -> RgbImage {
     let scale = style
         .displacement_ms
@@ -164,6 +190,7 @@ pub fn velocity_histograms(u: &[f32], v: &[f32], style: &HistogramStyle) -> RgbI
         above: 0,
     };
     let index = peak_locking_index(&both, scale);
+    let caption = peak_locking_caption(frac.total());
     let frac_label = match style.displacement_ms {
         Some(_) => "frac(u·τ), frac(v·τ) [px]".to_string(),
         None => "frac(u), frac(v) [px]".to_string(),
@@ -195,7 +222,8 @@ pub fn velocity_histograms(u: &[f32], v: &[f32], style: &HistogramStyle) -> RgbI
         .map(|(h, ..)| th + GAP + axes_of(h, 0.0, 0.0).y_label_width(TEXT) as i64 + GAP + TICK)
         .collect();
     let top = PAD + style.title.as_ref().map_or(0, |_| th + 2 * GAP) + th + GAP;
-    let bottom = TICK + GAP + th + GAP + th + PAD;
+    let caption_top = TICK + GAP + th + GAP + th + 2 * GAP;
+    let bottom = caption_top + caption.len() as i64 * (th + GAP) + PAD;
     let width = PAD
         + lefts
             .iter()
@@ -239,6 +267,10 @@ pub fn velocity_histograms(u: &[f32], v: &[f32], style: &HistogramStyle) -> RgbI
         axes.draw(&mut img, x_label, "count", TEXT);
         x += PANEL_W as i64 + 3 * PAD;
     }
+    for (i, line) in caption.iter().enumerate() {
+        let y = top + PANEL_H as i64 + caption_top + i as i64 * (th + GAP);
+        draw_text(&mut img, PAD, y, line, TEXT, INK, Align::Left);
+    }
     img
 }
 
@@ -272,8 +304,52 @@ fn dashed(img: &mut RgbImage, from: (f64, f64), to_x: f64, colour: Colour) {
 }
 
 #[cfg(test)]
-mod tests {
+pub(crate) mod tests {
     use super::*;
+
+    /// Heights in output px of the bars right of `x_from`, left to right (runs of columns
+    /// holding bar colour, each with its tallest column).
+    pub fn bar_heights(img: &RgbImage, x_from: u32) -> Vec<u32> {
+        let mut bars = Vec::new();
+        let mut current: Option<u32> = None;
+        for x in x_from..img.width() {
+            let n = (0..img.height())
+                .filter(|&y| img.get_pixel(x, y).0 == BAR)
+                .count() as u32;
+            match (n, current) {
+                (0, Some(h)) => {
+                    bars.push(h);
+                    current = None;
+                }
+                (0, None) => {}
+                (n, c) => current = Some(c.unwrap_or(0).max(n)),
+            }
+        }
+        bars.extend(current);
+        bars
+    }
+
+    /// Ink pixels in the caption lines at the bottom of a [`velocity_histograms`] figure.
+    pub fn caption_ink(img: &RgbImage) -> usize {
+        let th = text_height(TEXT) as i64;
+        let top = img.height() as i64 - PAD - 2 * (th + GAP);
+        crate::render::axes::probe::ink_in(img, 0, top as u32, img.width(), img.height())
+    }
+
+    #[test]
+    fn the_caption_explains_the_peak_locking_index() {
+        let [what, noise] = peak_locking_caption(1000);
+        assert!(what.contains("0 flat, 1 all at whole pixels"), "{what}");
+        assert!(noise.contains("about 0.20 here"), "{noise}");
+        assert!((peak_locking_noise(40) - 1.0).abs() < 1e-12);
+        assert!(peak_locking_noise(0).is_nan());
+        let img = velocity_histograms(
+            &[0.3, 1.2, 2.5],
+            &[0.1, 0.4, 0.9],
+            &HistogramStyle::default(),
+        );
+        assert!(caption_ink(&img) > 500);
+    }
 
     #[test]
     fn counts_sum_to_the_number_of_finite_values() {

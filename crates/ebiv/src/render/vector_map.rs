@@ -2,10 +2,10 @@
 //! image), with axes in image pixels, a colour bar and a reference arrow.
 
 use super::arrow::{ArrowSize, HALO};
-use super::axes::{colour_bar, colour_bar_width, format_value, Axes, GAP, INK, TICK};
+use super::axes::{format_value, Axes, ColourBar, ImageFigure, GAP, INK, PAPER, TEXT};
 use super::colormap::inferno;
 use super::draw::{Colour, Rect};
-use super::font::{draw_text, text_height, text_width, Align};
+use super::font::{draw_text, text_width, Align};
 use crate::event::Geometry;
 use crate::field::{Status, VectorField};
 use image::RgbImage;
@@ -15,7 +15,7 @@ use rayon::prelude::*;
 #[derive(Debug, Clone, PartialEq)]
 pub struct VectorMapStyle {
     /// Arrow length in image pixels per unit of velocity (px per px/ms); `None`: the median
-    /// magnitude is drawn 0.8 grid spacings long.
+    /// magnitude is drawn 0.8 arrow spacings long (grid spacing × stride).
     pub scale: Option<f64>,
     /// Magnitudes at the ends of the colour map; `None`: 0 to the 99th percentile, rounded
     /// up to two significant digits.
@@ -28,7 +28,8 @@ pub struct VectorMapStyle {
     pub units: String,
     /// Output pixels per image pixel; `None`: about 1000 px wide (integer when enlarging).
     pub pixel_scale: Option<f64>,
-    /// Draw every `stride`-th arrow in x and y; `None`: so arrows are ≥ 14 px apart.
+    /// Draw every `stride`-th arrow in x and y (1: all); `None`: thinned to a readable
+    /// density, see [`auto_stride`].
     pub stride: Option<usize>,
 }
 
@@ -46,9 +47,6 @@ impl Default for VectorMapStyle {
     }
 }
 
-const PAD: i64 = 14;
-const TEXT: u32 = 2;
-const PAPER: Colour = [255, 255, 255];
 const NO_DATA: Colour = [120, 120, 120];
 const VALID: Colour = [255, 255, 255];
 const REPLACED: Colour = [0, 225, 255];
@@ -106,6 +104,52 @@ fn grid_spacing(x: &[f64], y: &[f64], geometry: (f64, f64)) -> f64 {
     .max(1e-3)
 }
 
+/// Arrows drawn at least this many output pixels apart by default.
+pub const MIN_ARROW_GAP: f64 = 16.0;
+/// At most this many arrows across the longer side of the grid by default.
+pub const MAX_ARROWS_ACROSS: usize = 40;
+
+/// The default arrow stride: draw every `stride`-th node in x and y so that arrows are at
+/// least [`MIN_ARROW_GAP`] output pixels apart and at most [`MAX_ARROWS_ACROSS`] span the
+/// longer side of a grid of `nodes_across` nodes, given the grid `spacing` in output
+/// pixels. Denser arrows overlap and hide the flow.
+pub fn auto_stride(spacing: f64, nodes_across: usize) -> usize {
+    let by_gap = (MIN_ARROW_GAP / spacing).ceil();
+    let by_count = nodes_across.div_ceil(MAX_ARROWS_ACROSS) as f64;
+    by_gap.max(by_count).clamp(1.0, 1e6) as usize
+}
+
+/// Output pixels per image pixel: `style.pixel_scale`, or about 1000 px wide (an integer
+/// when enlarging), and at most [`MAX_SIDE`] px on a side.
+fn pixel_scale(geometry: Geometry, style: &VectorMapStyle) -> f64 {
+    let (w, h) = extent(geometry);
+    let auto = if w <= 1000.0 {
+        (1000.0 / w).min(800.0 / h).round().max(1.0)
+    } else {
+        (1000.0 / w).min(800.0 / h)
+    };
+    style
+        .pixel_scale
+        .filter(|k| k.is_finite() && *k > 0.0)
+        .unwrap_or(auto)
+        .min(MAX_SIDE / w)
+        .min(MAX_SIDE / h)
+}
+
+/// The stride of the arrows of a vector map of the grid `x`, `y`: `style.stride`, or
+/// [`auto_stride`] for the grid spacing in output pixels.
+pub(crate) fn arrow_stride(
+    x: &[f64],
+    y: &[f64],
+    geometry: Geometry,
+    style: &VectorMapStyle,
+) -> usize {
+    style.stride.filter(|&s| s > 0).unwrap_or_else(|| {
+        let spacing = grid_spacing(x, y, extent(geometry)) * pixel_scale(geometry, style);
+        auto_stride(spacing, x.len().max(y.len()))
+    })
+}
+
 /// Arrow scale that draws the median magnitude 0.8 grid spacings long.
 pub(crate) fn auto_scale(mags: &[f32], x: &[f64], y: &[f64], geometry: Geometry) -> f64 {
     let spacing = grid_spacing(x, y, extent(geometry));
@@ -140,53 +184,29 @@ pub fn vector_map(
         .magnitude_range
         .filter(|(a, b)| a.is_finite() && b.is_finite() && b > a)
         .unwrap_or_else(|| auto_range(&mags));
+    let k = pixel_scale(geometry, style);
+    let spacing = grid_spacing(&field.x, &field.y, (w, h)) * k;
+    let stride = arrow_stride(&field.x, &field.y, geometry, style);
     let scale = style
         .scale
         .filter(|s| s.is_finite() && *s > 0.0)
-        .unwrap_or_else(|| auto_scale(&mags, &field.x, &field.y, geometry));
-    let auto_k = if w <= 1000.0 {
-        (1000.0 / w).min(800.0 / h).round().max(1.0)
-    } else {
-        (1000.0 / w).min(800.0 / h)
-    };
-    let k = style
-        .pixel_scale
-        .filter(|k| k.is_finite() && *k > 0.0)
-        .unwrap_or(auto_k)
-        .min(MAX_SIDE / w)
-        .min(MAX_SIDE / h);
+        .unwrap_or_else(|| auto_scale(&mags, &field.x, &field.y, geometry) * stride as f64);
     let (pw, ph) = ((w * k).round().max(1.0), (h * k).round().max(1.0));
-
-    let th = text_height(TEXT) as i64;
-    let probe = Axes {
-        area: Rect::new(0.0, 0.0, pw, ph),
-        x_range: (-0.5, w - 0.5),
-        y_range: (-0.5, h - 0.5),
-    };
-    let left = PAD + th + GAP + probe.y_label_width(TEXT) as i64 + GAP + TICK;
-    let top = PAD + style.title.as_ref().map_or(0, |_| th + 2 * GAP);
-    let bottom = TICK + GAP + th + GAP + th + 2 * GAP + th + PAD;
-    let with_bar = style.colour_bar && background.is_none();
-    let range64 = (range.0 as f64, range.1 as f64);
-    let right = PAD
-        + if with_bar {
-            4 * GAP + colour_bar_width(range64, TEXT) as i64
-        } else {
-            3 * GAP
-        };
-    let size = |a: i64, p: f64, b: i64| (a + p as i64 + b) as u32;
-    let mut img = RgbImage::from_pixel(size(left, pw, right), size(top, ph, bottom), PAPER.into());
-    let axes = Axes {
-        area: Rect::new(left as f64, top as f64, pw, ph),
-        ..probe
-    };
+    let bar = (style.colour_bar && background.is_none()).then(|| {
+        let range = (range.0 as f64, range.1 as f64);
+        ColourBar::linear(range, format!("|V| [{}]", style.units), inferno)
+    });
+    // One blank note line: the reference arrow and the vector counts are drawn into it.
+    let (figure, mut img) = ImageFigure::new(
+        (w, h),
+        (pw, ph),
+        style.title.clone(),
+        bar,
+        vec![String::new()],
+    );
+    let axes = figure.axes;
 
     paint_plot(&mut img, &axes, field, background, range, geometry);
-    let spacing = grid_spacing(&field.x, &field.y, (w, h)) * k;
-    let stride = style
-        .stride
-        .filter(|&s| s > 0)
-        .unwrap_or((14.0 / spacing).ceil().clamp(1.0, 1e6) as usize);
     let arrow = ArrowSize::for_spacing(spacing * stride as f64);
     for r in (0..field.height()).step_by(stride) {
         for c in (0..field.width()).step_by(stride) {
@@ -205,27 +225,11 @@ pub fn vector_map(
             }
         }
     }
-    axes.draw(&mut img, "x [px]", "y [px]", TEXT);
+    figure.decorate(&mut img);
 
-    let (x0, x1) = (left, left + pw as i64);
-    if let Some(title) = &style.title {
-        draw_text(
-            &mut img,
-            (x0 + x1) / 2,
-            PAD,
-            title,
-            TEXT,
-            INK,
-            Align::Centre,
-        );
-    }
-    if with_bar {
-        let bx = x1 + 4 * GAP;
-        let label = format!("|V| [{}]", style.units);
-        colour_bar(&mut img, bx, top, ph as i64, range64, &label, TEXT, inferno);
-    }
     // Reference arrow and vector counts along the bottom.
-    let row = top + ph as i64 + TICK + GAP + th + GAP + th + 2 * GAP;
+    let (x0, x1) = (axes.area.x0 as i64, axes.area.x1 as i64);
+    let row = figure.note_y(0);
     let mut key_end = x0;
     let median_len = 0.8 * spacing * stride as f64 / k / scale;
     let reference = nice_floor(1.2 * median_len).filter(|r| r * scale * k >= 8.0);

@@ -1,5 +1,6 @@
 use super::*;
 use crate::field::FieldSeries;
+use crate::render::axes::probe::{colour_bar_column, plot_frame as frame};
 use proptest::prelude::*;
 
 /// A Lamb–Oseen vortex (circulation so the peak swirl is `peak` px/ms, core radius `rc` px)
@@ -31,20 +32,6 @@ fn uniform(u: f32, v: f32) -> VectorField {
     f.v[0] = v;
     f.status[0] = Status::VALID;
     f
-}
-
-/// The plot frame (left, top, right, bottom): the first two rows with about the most ink, and the
-/// first two columns inked over the whole height between them.
-fn frame(img: &RgbImage) -> (u32, u32, u32, u32) {
-    let ink = |x: u32, y: u32| img.get_pixel(x, y).0 == INK;
-    let rows: Vec<usize> = (0..img.height())
-        .map(|y| (0..img.width()).filter(|&x| ink(x, y)).count())
-        .collect();
-    let m = *rows.iter().max().unwrap();
-    let mut full = (0..img.height()).filter(|&y| rows[y as usize] * 10 >= m * 9);
-    let (top, bottom) = (full.next().unwrap(), full.next().unwrap());
-    let mut sides = (0..img.width()).filter(|&x| (top..=bottom).all(|y| ink(x, y)));
-    (sides.next().unwrap(), top, sides.next().unwrap(), bottom)
 }
 
 fn style() -> VectorMapStyle {
@@ -81,12 +68,8 @@ fn colour_bar_and_markers_are_drawn() {
     let i = f.index(2, 6);
     f.status[i] = Status::MEDIAN_TEST | Status::REPLACED;
     let img = vector_map(&f, Geometry::new(100, 100), None, &style());
-    let (_, top, right, bottom) = frame(&img);
-    // The colour bar: inferno's bright end near the top, its dark end near the bottom.
-    let near = |a: [u8; 3], b: [u8; 3]| (0..3).all(|k| a[k].abs_diff(b[k]) < 12);
-    let bar_x = (right + 1..img.width()).find(|&x| near(img.get_pixel(x, top + 3).0, inferno(1.0)));
-    let bar_x = bar_x.expect("colour bar");
-    assert!(near(img.get_pixel(bar_x + 2, bottom - 3).0, inferno(0.0)));
+    // The colour bar: inferno's bright end at the top, its dark end at the bottom.
+    assert!(colour_bar_column(&img, inferno(1.0), inferno(0.0)).is_some());
     // The invalid node is a red cross, the replaced one has cyan.
     let count = |c: Colour| img.pixels().filter(|p| p.0 == c).count();
     assert!(count(super::super::arrow::INVALID) > 10);
@@ -138,13 +121,99 @@ proptest! {
     }
 }
 
-/// Writes sample figures to `$EBIV_RENDER_SAMPLES` (when set) for looking at.
+#[test]
+fn default_arrows_are_thinned_and_stride_one_draws_all() {
+    // 100 × 25 nodes 4 px apart, drawn 2× (8 px apart): every third node by default, so
+    // arrows are ≥ 16 px apart and at most 40 span the grid.
+    let x = FieldSeries::axis(2.0, 398.0, 4.0);
+    let y = FieldSeries::axis(2.0, 98.0, 4.0);
+    let mut f = VectorField::new(x, y);
+    f.u.fill(1.0);
+    f.v.fill(0.0);
+    f.status.fill(Status::VALID);
+    let g = Geometry::new(400, 100);
+    assert_eq!(arrow_stride(&f.x, &f.y, g, &style()), 3);
+    let two = VectorMapStyle {
+        pixel_scale: Some(2.0),
+        ..Default::default()
+    };
+    assert_eq!(arrow_stride(&f.x, &f.y, g, &two), 3);
+    let all = VectorMapStyle {
+        stride: Some(1),
+        ..two.clone()
+    };
+    let thinned = vector_map(&f, g, None, &two);
+    let every = vector_map(&f, g, None, &all);
+    let (left, top, ..) = frame(&thinned);
+    assert_eq!(frame(&every).0, left);
+    // Row r of nodes lies at output y = top + 1 + 2·(4r + 2.5); its arrows point right.
+    let white = |img: &RgbImage, r: u32, c: u32| {
+        let (nx, ny) = (
+            left + 1 + 2 * (4 * c + 2) + 1,
+            top + 1 + 2 * (4 * r + 2) + 1,
+        );
+        arrow_at(img, (nx + 4) as f64, ny as f64)
+    };
+    for c in [0, 3, 30] {
+        assert!(
+            white(&thinned, 0, c) && white(&thinned, 3, c),
+            "node ({c}) drawn"
+        );
+        assert!(white(&every, 1, c + 1), "stride 1 draws every node");
+    }
+    for r in [1, 2, 4, 5] {
+        assert!(!white(&thinned, r, 3), "row {r} is left out by default");
+    }
+}
+
+#[test]
+fn auto_stride_bounds_density() {
+    assert_eq!(auto_stride(30.0, 30), 1);
+    assert_eq!(auto_stride(8.0, 10), 2, "≥ 16 px apart");
+    assert_eq!(auto_stride(15.6, 64), 2, "≤ 40 across");
+    assert_eq!(auto_stride(1.0, 1000), 25);
+    assert_eq!(auto_stride(f64::NAN, 0), 1);
+}
+
+/// Whether a white arrow covers output pixel `(x, y)` or a neighbour. Thin arrows are
+/// anti-aliased over their black halo, so their body is light grey rather than white: some
+/// pixel of the 3 × 3 block is grey (channels within 10) and at least 140 bright, which
+/// neither the inferno map, the halo nor the no-data grey is.
+fn arrow_at(img: &RgbImage, x: f64, y: f64) -> bool {
+    let (x, y) = (x as i64, y as i64);
+    let inside =
+        |a: i64, b: i64| a >= 0 && b >= 0 && a < img.width() as i64 && b < img.height() as i64;
+    (x - 1..=x + 1)
+        .flat_map(|a| (y - 1..=y + 1).map(move |b| (a, b)))
+        .filter(|&(a, b)| inside(a, b))
+        .any(|(a, b)| {
+            let p = img.get_pixel(a as u32, b as u32).0;
+            let (lo, hi) = (*p.iter().min().unwrap(), *p.iter().max().unwrap());
+            lo >= 140 && hi - lo <= 10
+        })
+}
+
+/// Output position of node (`r`, `c`) of `f` in a figure drawn with plot frame corner
+/// `(left, top)` at `k` output px per image px.
+fn node_position(f: &VectorField, left: u32, top: u32, k: f64, r: usize, c: usize) -> (f64, f64) {
+    (
+        (left + 1) as f64 + (f.x[c] + 0.5) * k,
+        (top + 1) as f64 + (f.y[r] + 0.5) * k,
+    )
+}
+
+/// The sample figures: a Lamb–Oseen vortex on a 1280 × 720 sensor (arrows thinned), a small
+/// one (all arrows) alone and over a background. Checks the plot size, the colour bar, the
+/// stride and that the drawn arrows point along the flow; writes the figures to
+/// `$EBIV_RENDER_SAMPLES` when set, for looking at.
 #[test]
 fn sample_figures() {
-    let Some(dir) = std::env::var_os("EBIV_RENDER_SAMPLES") else {
-        return;
+    let dir = std::env::var_os("EBIV_RENDER_SAMPLES").map(std::path::PathBuf::from);
+    let save = |img: &RgbImage, name: &str| {
+        if let Some(dir) = &dir {
+            crate::render::save_png(img, &dir.join(name)).unwrap();
+        }
     };
-    let dir = std::path::PathBuf::from(dir);
     let mut f = lamb_oseen(1280.0, 720.0, 24.0, 2.0, 120.0);
     for i in [100, 341, 342, 900, 1201] {
         f.invalidate(i, Status::LOW_PEAK_RATIO);
@@ -156,17 +225,39 @@ fn sample_figures() {
         title: Some("Lamb-Oseen vortex, 24 px grid".into()),
         ..Default::default()
     };
-    let img = vector_map(&f, Geometry::new(1280, 720), None, &style);
-    crate::render::save_png(&img, &dir.join("vector_map.png")).unwrap();
+    let g = Geometry::new(1280, 720);
+    let img = vector_map(&f, g, None, &style);
+    let (l, t, r, b) = frame(&img);
+    assert_eq!((r - l - 1, b - t - 1), (1000, 563), "about 1000 px wide");
+    assert!(colour_bar_column(&img, inferno(1.0), inferno(0.0)).is_some());
+    // 53 × 29 nodes 18.75 output px apart: every second one, 27 across.
+    assert_eq!(arrow_stride(&f.x, &f.y, g, &style), 2);
+    let k = 1000.0 / 1280.0;
+    for (row, col) in [(4, 10), (20, 40), (10, 26)] {
+        let i = f.index(row, col);
+        let (p, d) = (
+            node_position(&f, l, t, k, row, col),
+            (f.u[i] as f64, f.v[i] as f64),
+        );
+        let unit = (d.0 / d.0.hypot(d.1), d.1 / d.0.hypot(d.1));
+        let along = |s: f64| arrow_at(&img, p.0 + s * unit.0, p.1 + s * unit.1);
+        assert!(along(6.0), "arrow at node ({row}, {col}) along the flow");
+        assert!(!along(-6.0), "nothing behind node ({row}, {col})");
+    }
+    save(&img, "vector_map.png");
+
     let small = lamb_oseen(320.0, 240.0, 16.0, 1.5, 40.0);
-    let img = vector_map(
-        &small,
-        Geometry::new(320, 240),
-        None,
-        &VectorMapStyle::default(),
+    let g = Geometry::new(320, 240);
+    let img = vector_map(&small, g, None, &VectorMapStyle::default());
+    let (l, t, r, b) = frame(&img);
+    assert_eq!((r - l - 1, b - t - 1), (960, 720), "enlarged 3 times");
+    assert_eq!(
+        arrow_stride(&small.x, &small.y, g, &VectorMapStyle::default()),
+        1
     );
-    crate::render::save_png(&img, &dir.join("vector_map_small.png")).unwrap();
-    // A background: speckle standing in for a time-coded event image.
+    assert!(colour_bar_column(&img, inferno(1.0), inferno(0.0)).is_some());
+    save(&img, "vector_map_small.png");
+    // A background: speckle standing in for a time-coded event image; no colour bar.
     let bg = RgbImage::from_fn(320, 240, |x, y| {
         let h = (x.wrapping_mul(2_654_435_761) ^ y.wrapping_mul(40_503)) % 97;
         if h < 3 {
@@ -177,22 +268,25 @@ fn sample_figures() {
             [0, 0, 0].into()
         }
     });
-    let img = vector_map(
-        &small,
-        Geometry::new(320, 240),
-        Some(&bg),
-        &VectorMapStyle::default(),
-    );
-    crate::render::save_png(&img, &dir.join("vector_map_background.png")).unwrap();
+    let img = vector_map(&small, g, Some(&bg), &VectorMapStyle::default());
+    assert!(colour_bar_column(&img, inferno(1.0), inferno(0.0)).is_none());
+    let (l, t, ..) = frame(&img);
+    // Background pixels dimmed to 60 %: a blue speckle becomes [36, 54, 153].
+    let dimmed = (0..320 * 240).filter(|i| {
+        let (x, y) = (i % 320, i / 320);
+        bg.get_pixel(x, y).0 == [60, 90, 255]
+            && img.get_pixel(l + 1 + 3 * x + 1, t + 1 + 3 * y + 1).0 == [36, 54, 153]
+    });
+    assert!(dimmed.count() > 1000);
+    save(&img, "vector_map_background.png");
 }
 
-/// Writes a histogram sample to `$EBIV_RENDER_SAMPLES` (when set): velocities with simulated
-/// peak locking (displacements over τ = 2 ms pulled toward integers).
+/// The sample histogram: velocities with simulated peak locking (displacements over
+/// τ = 2 ms pulled toward integers). Checks that the fractional-displacement panel shows the
+/// locking (tall bars at 0 and 1) and that the caption is drawn; writes the figure to
+/// `$EBIV_RENDER_SAMPLES` when set.
 #[test]
 fn sample_histogram() {
-    let Some(dir) = std::env::var_os("EBIV_RENDER_SAMPLES") else {
-        return;
-    };
     let mut state = 12345u64;
     let mut uniform = || {
         state = state
@@ -215,6 +309,12 @@ fn sample_histogram() {
         ..Default::default()
     };
     let img = crate::render::velocity_histograms(&u, &v, &style);
-    let dir = std::path::PathBuf::from(dir);
-    crate::render::save_png(&img, &dir.join("histograms.png")).unwrap();
+    let bars = super::super::histogram::tests::bar_heights(&img, 2 * img.width() / 3);
+    assert_eq!(bars.len(), 10, "ten bars of fractional displacement");
+    assert!(bars[0] > bars[4] + 20 && bars[9] > bars[5] + 20, "{bars:?}");
+    assert!(super::super::histogram::tests::caption_ink(&img) > 500);
+    if let Some(dir) = std::env::var_os("EBIV_RENDER_SAMPLES") {
+        let dir = std::path::PathBuf::from(dir);
+        crate::render::save_png(&img, &dir.join("histograms.png")).unwrap();
+    }
 }

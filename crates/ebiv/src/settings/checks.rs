@@ -77,6 +77,13 @@ pub fn at_least_one(v: &u32) -> Check {
     }
 }
 
+pub fn at_least_one_if_given(v: &Option<u32>) -> Check {
+    match v {
+        Some(0) => Err("must be at least 1".into()),
+        _ => Ok(()),
+    }
+}
+
 pub fn at_least_one_px(v: &Option<u32>) -> Check {
     match v {
         Some(0) => Err("must be at least 1 px".into()),

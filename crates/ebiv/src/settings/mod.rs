@@ -96,6 +96,9 @@ settings! {
         /// Folder for figures: a vector map per field over its event image, histograms of u
         /// and v, and an animated GIF of the series.
         png: Option<PathBuf> = None; "DIR";
+        /// Vector maps in `png`: draw every Nth arrow in x and y (1: every vector). Default:
+        /// thinned so that arrows are at least 16 px apart and at most 40 span the grid.
+        arrow_stride: Option<u32> = None; "N", check at_least_one_if_given;
         /// Mask image of the sensor's size (PNG, TIFF, BMP): non-zero pixels are left out;
         /// windows centred on them are flagged `masked`.
         mask: Option<PathBuf> = None; "IMAGE";

@@ -76,6 +76,8 @@ pub struct Resolved {
     pub output: PathBuf,
     /// The folder for figures.
     pub png: Option<PathBuf>,
+    /// Draw every Nth arrow of the vector maps; `None`: a readable density.
+    pub arrow_stride: Option<u32>,
     /// Positions in mm and velocities in m/s.
     pub calibration: Option<Calibration>,
     /// The mask image.
@@ -266,6 +268,7 @@ impl ProcessSettings {
             absolute_time: self.absolute_time,
             output: self.output.clone(),
             png: self.png.clone(),
+            arrow_stride: self.arrow_stride,
             calibration,
             mask: self.mask.clone(),
         })

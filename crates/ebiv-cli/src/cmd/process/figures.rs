@@ -2,7 +2,7 @@
 //! map per field, histograms, the animation, and the summary lines.
 
 use crate::progress::count_bar;
-use ebiv::field::FieldSeries;
+use ebiv::field::{FieldSeries, Quantity};
 use ebiv::grid::GridSpec;
 use ebiv::process::{FieldDone, Method, RunSummary};
 use ebiv::render::{
@@ -112,41 +112,63 @@ pub fn describe_passes(passes: &[GridSpec]) -> String {
         .join(" -> ")
 }
 
+/// The style of the vector maps of a run: `title`, velocities or displacements in `units`,
+/// and the run's `arrow-stride` (default: thinned to a readable density).
+pub fn vector_style(run: &Resolved, title: String, units: &str) -> VectorMapStyle {
+    VectorMapStyle {
+        title: Some(title),
+        units: units.into(),
+        stride: run.arrow_stride.map(|s| s as usize),
+        ..VectorMapStyle::default()
+    }
+}
+
 /// The vector map of one field over the time-coded image of its slab.
 fn field_figure(d: &FieldDone, g: Geometry, run: &Resolved, extent: (i64, i64)) -> image::RgbImage {
     let half = extent.0.min(extent.1).max(1);
     let events = time_coded_image(d.events, g, d.t0_us, half, run.process.polarity);
-    let style = VectorMapStyle {
-        title: Some(format!(
-            "{} t = {:.2} ms",
-            run.input_path()
-                .file_name()
-                .unwrap_or_default()
-                .to_string_lossy(),
-            d.t0_us as f64 / 1000.0
-        )),
-        ..VectorMapStyle::default()
-    };
+    let title = format!(
+        "{} t = {:.2} ms",
+        run.input_path()
+            .file_name()
+            .unwrap_or_default()
+            .to_string_lossy(),
+        d.t0_us as f64 / 1000.0
+    );
+    let style = vector_style(run, title, Quantity::Velocity.units().0);
     vector_map(d.field, g, Some(&events.image), &style)
 }
 
-/// Histograms of the valid u and v of a series (with the fractional displacement over
-/// `tau_ms`, when given, to expose peak locking).
+/// Histograms of the valid u and v of a series, with the fractional displacement that
+/// exposes peak locking (see [`histogram_style`]).
 pub fn series_histograms(
     series: &FieldSeries,
     title_prefix: &str,
     tau_ms: Option<f64>,
 ) -> image::RgbImage {
     let (u, v) = valid_components(&series.u, &series.v, &series.status);
-    velocity_histograms(
-        &u,
-        &v,
-        &HistogramStyle {
-            displacement_ms: tau_ms,
-            title: Some(format!("{title_prefix}{} valid vectors", u.len())),
-            ..HistogramStyle::default()
+    let style = histogram_style(
+        series.quantity,
+        &format!("{title_prefix}{} valid vectors", u.len()),
+        tau_ms,
+    );
+    velocity_histograms(&u, &v, &style)
+}
+
+/// How the histograms of a series of `quantity` are drawn: in its units (px/ms for
+/// velocities, px for the displacements of image pairs without a time between frames),
+/// with velocities turned into displacements over `tau_ms` for the fractional part, and
+/// displacements taken as they are.
+fn histogram_style(quantity: Quantity, title: &str, tau_ms: Option<f64>) -> HistogramStyle {
+    HistogramStyle {
+        displacement_ms: match quantity {
+            Quantity::Velocity => tau_ms,
+            Quantity::Displacement => None,
         },
-    )
+        units: quantity.units().0.into(),
+        title: Some(title.into()),
+        ..HistogramStyle::default()
+    }
 }
 
 /// Histograms of u and v and the animation, after the run.
@@ -170,4 +192,36 @@ pub fn write_series_figures(
     }
     println!("figures in {}: {written}", dir.display());
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn histograms_take_their_units_from_the_quantity() {
+        let px = histogram_style(Quantity::Displacement, "pairs", Some(1.0));
+        assert_eq!(px.units, "px");
+        assert_eq!(
+            px.displacement_ms, None,
+            "displacements are not scaled by a time"
+        );
+        let v = histogram_style(Quantity::Velocity, "events", Some(2.0));
+        assert_eq!((v.units.as_str(), v.displacement_ms), ("px/ms", Some(2.0)));
+    }
+
+    #[test]
+    fn arrow_stride_reaches_the_vector_maps() {
+        let mut settings = ebiv::settings::ProcessSettings {
+            input: Some("rec.raw".into()),
+            ..Default::default()
+        };
+        let run = settings.resolve().unwrap();
+        assert_eq!(vector_style(&run, "t".into(), "px").stride, None);
+        settings.set_flag("arrow-stride", &["1".into()]).unwrap();
+        let run = settings.resolve().unwrap();
+        let style = vector_style(&run, "t".into(), "px");
+        assert_eq!((style.stride, style.units.as_str()), (Some(1), "px"));
+        assert!(settings.set_flag("arrow-stride", &["0".into()]).is_err());
+    }
 }

@@ -2,8 +2,8 @@
 //! from an event recording, or of one frame per light pulse (pulsed EBIV).
 
 use super::figures::{
-    describe_passes, finish_recording_run, series_histograms, write_series_figures, FieldProgress,
-    MAX_GIF_FRAMES,
+    describe_passes, finish_recording_run, series_histograms, vector_style, write_series_figures,
+    FieldProgress, MAX_GIF_FRAMES,
 };
 use crate::progress::count_bar;
 use ebiv::field::Quantity;
@@ -14,7 +14,7 @@ use ebiv::piv::images::{
 };
 use ebiv::piv::{piv_events, EventPivParams, FrameClock, PivParams};
 use ebiv::process::{first_event_time, Method, PlannedFields};
-use ebiv::render::{frame_image, save_png, vector_map, write_gif, VectorMapStyle};
+use ebiv::render::{frame_image, save_png, vector_map, write_gif};
 use ebiv::settings::{Resolved, Source};
 use ebiv::Error;
 use std::path::Path;
@@ -70,15 +70,8 @@ pub fn run_images(run: &Resolved) -> Result<(), Error> {
             return Ok(());
         };
         let (a, b) = done.pairs[0];
-        let style = VectorMapStyle {
-            title: Some(format!(
-                "{} / {}",
-                file_name(&paths[a]),
-                file_name(&paths[b])
-            )),
-            units: quantity.units().0.into(),
-            ..VectorMapStyle::default()
-        };
+        let title = format!("{} / {}", file_name(&paths[a]), file_name(&paths[b]));
+        let style = vector_style(run, title, quantity.units().0);
         let figure = vector_map(done.field, g, Some(&frame_image(&frames[a])), &style);
         save_png(&figure, &dir.join(format!("field_{:04}.png", done.index)))?;
         if figures.len() < MAX_GIF_FRAMES {
