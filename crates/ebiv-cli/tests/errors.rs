@@ -306,3 +306,26 @@ fn an_interrupted_frames_run_lists_its_whole_frames() {
     );
     assert!(n < 4900);
 }
+
+#[test]
+fn render_refuses_to_draw_nothing() {
+    let Some(wall) = data(WALL) else { return };
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("r.png");
+    let err = fails(&["render", s(&wall), "--t0", "10s", "-o", s(&out)]);
+    assert!(err.contains("no event of polarity `both` within"), "{err}");
+    let err = fails(&[
+        "render",
+        s(&wall),
+        "--rate",
+        "--polarity",
+        "neg",
+        "-o",
+        s(&out),
+    ]);
+    assert!(err.contains("no event of polarity `negative` in the recording"), "{err}");
+    assert!(!out.exists());
+    let missing = dir.path().join("nodir").join("r.png");
+    let err = fails(&["render", s(&wall), "-o", s(&missing)]);
+    assert!(err.contains("does not exist"), "{err}");
+}

@@ -63,6 +63,7 @@ pub fn run(args: &RenderArgs) -> Result<(), ebiv::Error> {
     }
     // Before reading anything: the output format and the enlargement.
     figure_format(&args.output, "output")?;
+    super::check_output_path(&args.output, &[])?;
     let options = args.input.read_options()?;
     let origin = if args.absolute_time {
         0
@@ -105,6 +106,9 @@ pub fn run(args: &RenderArgs) -> Result<(), ebiv::Error> {
         })?;
         let interval = (!whole_file).then_some((start, end));
         let img = map.render(interval, &style)?;
+        if img.active_pixels == 0 {
+            return Err(nothing_to_draw(args, t0 - origin));
+        }
         save_figure(&img.image, &args.output)?;
         eprintln!(
             "wrote {}: event rate of {} active pixels, colour bar 0 .. {:.0} events/s per pixel (mean {:.1})",
@@ -116,6 +120,9 @@ pub fn run(args: &RenderArgs) -> Result<(), ebiv::Error> {
     } else {
         let (events, geometry) = collect(&args.file, &options, start, end)?;
         let img = time_coded_image(&events, geometry, t0, args.dt / 2, args.polarity);
+        if img.events == 0 {
+            return Err(nothing_to_draw(args, t0 - origin));
+        }
         save_figure(&event_figure(&img, &style("events"))?, &args.output)?;
         eprintln!(
             "wrote {}: {} events within {} of t0 = {} µs{}; past blue, t0 white, future red",
@@ -131,6 +138,32 @@ pub fn run(args: &RenderArgs) -> Result<(), ebiv::Error> {
         );
     }
     Ok(())
+}
+
+/// The error for an interval without events of the selected polarity: a blank figure is not
+/// written.
+fn nothing_to_draw(args: &RenderArgs, t0_from_origin: i64) -> ebiv::Error {
+    let when = if args.rate && args.t0.is_none() {
+        "in the recording".to_string()
+    } else {
+        format!(
+            "within {} of t0 = {}{}",
+            format_us(args.dt / 2),
+            format_us(t0_from_origin),
+            if args.absolute_time {
+                " (camera time)"
+            } else {
+                " after the first event"
+            }
+        )
+    };
+    ebiv::Error::empty(
+        args.file.display().to_string(),
+        format!(
+            "no event of polarity `{}` {when}, so no figure is written; `ebiv info` gives the recording's span and polarities (check --t0, --dt and --polarity)",
+            format!("{:?}", args.polarity).to_lowercase()
+        ),
+    )
 }
 
 /// The events of `[start, end)` and the sensor geometry (from the file, the options, or the
