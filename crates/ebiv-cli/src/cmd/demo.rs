@@ -15,7 +15,9 @@ use ebiv::grid::GridSpec;
 use ebiv::io::{write, Format, ReadOptions};
 use ebiv::piv::{piv_events, EventPivParams, FrameClock, PivParams};
 use ebiv::process::{process_recording, FieldDone, MemorySource, ProcessParams, RunSummary};
-use ebiv::render::{save_png, time_coded_image, upscale, vector_map, VectorMapStyle};
+use ebiv::render::{
+    event_figure, save_png, time_coded_image, vector_map, ImageFigureStyle, VectorMapStyle,
+};
 use ebiv::sim::simulation::Simulation;
 use ebiv::{EventBuffer, PolaritySelection};
 use std::path::{Path, PathBuf};
@@ -86,7 +88,12 @@ pub fn run(args: &DemoArgs) -> Result<(), ebiv::Error> {
 
     let image = time_coded_image(&events, g, 30_000, 2_500, PolaritySelection::Positive);
     let events_png = args.output.join("events.png");
-    save_png(&upscale(&image.image, 2), &events_png)?;
+    let style = ImageFigureStyle {
+        title: Some("ebiv demo: events, polarity positive".into()),
+        pixel_scale: Some(2),
+        time_origin_us: 0,
+    };
+    save_png(&event_figure(&image, &style)?, &events_png)?;
     println!(
         "wrote {}: ON events within ±2.5 ms of t = 30 ms, past blue, present white, future red",
         events_png.display()
