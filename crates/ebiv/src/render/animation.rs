@@ -53,7 +53,7 @@ pub fn write_gif(frames: &[RgbImage], delay_ms: u16, path: &Path) -> Result<()> 
     let mut name = path.file_name().unwrap_or_default().to_os_string();
     name.push(".partial");
     let temp = path.with_file_name(name);
-    let file = std::fs::File::create(&temp).map_err(|e| Error::io(&temp, e))?;
+    let file = std::fs::File::create(&temp).map_err(|e| Error::io(path, e))?;
     let gif_error = |e: gif::EncodingError| match e {
         gif::EncodingError::Io(e) => Error::io(path, e),
         other => Error::Write {

@@ -99,7 +99,7 @@ fn write_through_temporary(
     let mut name = path.file_name().unwrap_or_default().to_os_string();
     name.push(".partial");
     let temp = path.with_file_name(name);
-    let file = std::fs::File::create(&temp).map_err(|e| Error::io(&temp, e))?;
+    let file = std::fs::File::create(&temp).map_err(|e| Error::io(path, e))?;
     let mut out = std::io::BufWriter::new(file);
     let result = write(&mut out)
         .map_err(|e| Error::Write {
