@@ -323,7 +323,10 @@ fn render_refuses_to_draw_nothing() {
         "-o",
         s(&out),
     ]);
-    assert!(err.contains("no event of polarity `negative` in the recording"), "{err}");
+    assert!(
+        err.contains("no event of polarity `negative` in the recording"),
+        "{err}"
+    );
     assert!(!out.exists());
     let missing = dir.path().join("nodir").join("r.png");
     let err = fails(&["render", s(&wall), "-o", s(&missing)]);

@@ -362,6 +362,22 @@ macro_rules! choice {
             }
         }
     };
+    // A type that names its own values (`name()`), listed by variant.
+    ($ty:ty, $parse:expr, named [ $($variant:path),+ $(,)? ]) => {
+        impl SettingValue for $ty {
+            fn from_text(text: &str) -> Result<Self, String> {
+                let parse: fn(&str) -> Option<$ty> = $parse;
+                parse(text.trim()).ok_or_else(|| {
+                    let names = [$($variant.name()),+];
+                    format!("`{text}` is not {}", one_of(&names))
+                })
+            }
+
+            fn to_toml(&self) -> Option<Value> {
+                Some(Value::String(self.name().to_string()))
+            }
+        }
+    };
 }
 
 /// "a, b or c".
@@ -379,16 +395,16 @@ choice!(Method, Method::parse, {
     Method::Piv => "piv",
     Method::Pulsed => "pulsed",
 });
-choice!(PolaritySelection, PolaritySelection::parse, {
-    PolaritySelection::Positive => "pos",
-    PolaritySelection::Negative => "neg",
-    PolaritySelection::Both => "both",
-});
-choice!(SubPixelFit, SubPixelFit::parse, {
-    SubPixelFit::Gaussian3 => "gauss3",
-    SubPixelFit::Parabolic3 => "parabolic",
-    SubPixelFit::Gaussian2d => "gauss2d",
-});
+choice!(PolaritySelection, PolaritySelection::parse, named [
+    PolaritySelection::Positive,
+    PolaritySelection::Negative,
+    PolaritySelection::Both,
+]);
+choice!(SubPixelFit, SubPixelFit::parse, named [
+    SubPixelFit::Gaussian3,
+    SubPixelFit::Parabolic3,
+    SubPixelFit::Gaussian2d,
+]);
 choice!(Weighting, |t| match t {
     "binary" => Some(Weighting::Binary),
     "count" => Some(Weighting::Count),
@@ -411,10 +427,10 @@ choice!(SearchMethod, |t| match t {
     "newton" => Some(SearchMethod::Newton),
     "grid" => Some(SearchMethod::Grid),
     _ => None,
-}, {
-    SearchMethod::Newton => "newton",
-    SearchMethod::Grid => "grid",
-});
+}, named [
+    SearchMethod::Newton,
+    SearchMethod::Grid,
+]);
 choice!(Objective, |t| match t {
     "variance" | "var" => Some(Objective::Variance),
     "sum-of-squares" | "sumsq" => Some(Objective::SumOfSquares),
@@ -423,32 +439,32 @@ choice!(Objective, |t| match t {
     "isoa" => Some(Objective::Isoa),
     "max-accumulation" | "moa" => Some(Objective::MaxAccumulation),
     _ => None,
-}, {
-    Objective::Variance => "variance",
-    Objective::SumOfSquares => "sum-of-squares",
-    Objective::SumExp => "sum-exp",
-    Objective::R1 => "r1",
-    Objective::Isoa => "isoa",
-    Objective::MaxAccumulation => "max-accumulation",
-});
+}, named [
+    Objective::Variance,
+    Objective::SumOfSquares,
+    Objective::SumExp,
+    Objective::R1,
+    Objective::Isoa,
+    Objective::MaxAccumulation,
+]);
 choice!(CorrelationKind, CorrelationKind::parse, {
     CorrelationKind::Circular => "circular",
     CorrelationKind::Linear => "linear",
 });
-choice!(DeformationMode, DeformationMode::parse, {
-    DeformationMode::Symmetric => "symmetric",
-    DeformationMode::Second => "second",
-});
+choice!(DeformationMode, DeformationMode::parse, named [
+    DeformationMode::Symmetric,
+    DeformationMode::Second,
+]);
 choice!(Interpolation, Interpolation::parse, {
     Interpolation::Quintic => "quintic",
     Interpolation::Cubic => "cubic",
     Interpolation::Linear => "linear",
 });
-choice!(FrameKind, |t| FrameKind::parse(t).ok(), {
-    FrameKind::Count => "count",
-    FrameKind::Binary => "binary",
-    FrameKind::TimeSurface => "time-surface",
-});
+choice!(FrameKind, |t| FrameKind::parse(t).ok(), named [
+    FrameKind::Count,
+    FrameKind::Binary,
+    FrameKind::TimeSurface,
+]);
 
 #[cfg(test)]
 mod tests {
