@@ -14,8 +14,13 @@ f = np.genfromtxt(source, delimiter=",", names=True, comments="#")
 # The first field's valid vectors (invalid ones are NaN); column names carry the units.
 ok = (f["status"] == 0) & (f["t_us"] == f["t_us"][0])
 x, y, u, v = (f[k][ok] for k in ("x_px", "y_px", "u_px_ms", "v_px_ms"))
-plt.quiver(x, y, u, v, np.hypot(u, v))
+# angles="xy": arrows in data coordinates, so that v > 0 (down in the image) points down
+# once the y axis is inverted.
+plt.quiver(x, y, u, v, np.hypot(u, v), angles="xy")
 plt.gca().invert_yaxis()                    # image coordinates: y down
+plt.xlabel("x (px)")
+plt.ylabel("y (px)")
+plt.title(f"{source}: first field")
 plt.gca().set_aspect("equal")
 plt.colorbar(label="|v| (px/ms)")
 plt.savefig(target, dpi=150)

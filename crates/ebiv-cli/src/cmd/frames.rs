@@ -202,7 +202,7 @@ pub fn run(args: &FramesArgs) -> Result<(), ebiv::Error> {
     // Ctrl-C stops after the frame being written (every frame on disk is whole), and
     // frames.csv then lists the frames that were written.
     let catch = crate::interrupt::catch();
-    let mut written = 0usize;
+    let (mut written, mut blank) = (0usize, 0usize);
     let streamed = stream_frames(
         &mut reader,
         geometry,
@@ -222,6 +222,7 @@ pub fn run(args: &FramesArgs) -> Result<(), ebiv::Error> {
                 record.index, record.start_us, record.exposure_us, record.events
             );
             written += 1;
+            blank += usize::from(record.events == 0);
             bar.inc(1);
             Ok(())
         },
@@ -257,6 +258,11 @@ pub fn run(args: &FramesArgs) -> Result<(), ebiv::Error> {
     );
     if args.despeckle {
         eprintln!("despeckle cleared {cleared} isolated pixels");
+    }
+    if blank > 0 {
+        eprintln!(
+            "warning: {blank} of {written} frames hold no event (frames.csv lists them with 0 events; check --time against `ebiv info`)"
+        );
     }
     if summary.late_events > 0 {
         eprintln!(

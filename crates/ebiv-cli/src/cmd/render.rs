@@ -72,14 +72,21 @@ pub fn run(args: &RenderArgs) -> Result<(), ebiv::Error> {
             .ok_or_else(|| ebiv::Error::parameter("file", "the recording holds no events"))?
     };
     let whole_file = args.rate && args.t0.is_none();
-    let t0 = origin + args.t0.unwrap_or(args.dt / 2);
+    let beyond =
+        || ebiv::Error::parameter("t0", "--t0 and --dt reach beyond the range of time stamps");
+    let t0 = origin
+        .checked_add(args.t0.unwrap_or(args.dt / 2))
+        .ok_or_else(beyond)?;
     let (start, end) = if whole_file {
         (i64::MIN, i64::MAX)
     } else {
-        (t0 - args.dt / 2, t0 + args.dt - args.dt / 2)
+        (
+            t0.checked_sub(args.dt / 2).ok_or_else(beyond)?,
+            t0.checked_add(args.dt - args.dt / 2).ok_or_else(beyond)?,
+        )
     };
     let name = args.file.file_name().unwrap_or_default().to_string_lossy();
-    let polarity = format!("{:?}", args.polarity).to_lowercase();
+    let polarity = args.polarity.name();
     let style = |what: &str| ImageFigureStyle {
         title: Some(format!("{name}: {what}, polarity {polarity}")),
         pixel_scale: args.scale,
@@ -161,7 +168,7 @@ fn nothing_to_draw(args: &RenderArgs, t0_from_origin: i64) -> ebiv::Error {
         args.file.display().to_string(),
         format!(
             "no event of polarity `{}` {when}, so no figure is written; `ebiv info` gives the recording's span and polarities (check --t0, --dt and --polarity)",
-            format!("{:?}", args.polarity).to_lowercase()
+            args.polarity.name()
         ),
     )
 }

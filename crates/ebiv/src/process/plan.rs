@@ -105,9 +105,6 @@ pub fn plan_fields(
             ),
         )
     };
-    if scanned && before.saturating_add(after) > extent.last_us + 1 - extent.first_us {
-        return Err(too_short());
-    }
     let geometry = header_geometry
         .unwrap_or_else(|| Geometry::new(extent.max_x as u32 + 1, extent.max_y as u32 + 1));
     let origin = if absolute_time {
@@ -117,7 +114,12 @@ pub fn plan_fields(
     };
     let step = time.map_or(default_step, |t| t.step);
     let fitting = TimeSteps::fitting(extent.first_us, extent.last_us, before, after, step);
-    let (start, end) = (start.map(|t| origin + t), end.map(|t| origin + t));
+    let shift = |t: i64| {
+        origin.checked_add(t).ok_or_else(|| {
+            Error::parameter("time", format!("{t} µs is beyond the range of time stamps"))
+        })
+    };
+    let (start, end) = (start.map(shift).transpose()?, end.map(shift).transpose()?);
     let steps = match (start, end, fitting) {
         (Some(a), Some(b), _) => TimeSteps {
             start: a,
@@ -243,7 +245,7 @@ pub fn coverage(
             path.display().to_string(),
             format!(
                 "no event of polarity `{}` in the interval ({}); check --time and --polarity",
-                format!("{polarity:?}").to_lowercase(),
+                polarity.name(),
                 span()
             ),
         ));

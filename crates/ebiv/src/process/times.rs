@@ -75,14 +75,18 @@ impl TimeSteps {
                 ),
             ));
         }
-        let count = (self.end - self.start) / self.step + 1;
-        if count as u64 > limit as u64 {
+        // (In i128: the span of two extreme times overflows i64.)
+        let count = (self.end as i128 - self.start as i128) / self.step as i128 + 1;
+        if count > limit as i128 {
             return Err(Error::parameter(
                 "time",
                 format!("{count} field times requested, more than the limit of {limit}"),
             ));
         }
-        Ok((0..count).map(|i| self.start + i * self.step).collect())
+        // (Within start..=end, so within i64.)
+        Ok((0..count as i64)
+            .map(|i| self.start + i * self.step)
+            .collect())
     }
 }
 
@@ -106,7 +110,16 @@ mod tests {
         };
         assert_eq!(t.times(10).unwrap(), vec![0, 5, 10]);
         assert!(t.times(2).is_err());
+        let extreme = TimeSteps {
+            start: i64::MIN + 5,
+            end: i64::MAX - 5,
+            step: 1_000_000_000_000,
+        };
+        let err = extreme.times(MAX_TEST_FIELDS).unwrap_err().to_string();
+        assert!(err.contains("more than the limit"), "{err}");
     }
+
+    const MAX_TEST_FIELDS: usize = 1000;
 
     #[test]
     fn parse_rejects_nonsense() {

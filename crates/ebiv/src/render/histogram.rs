@@ -91,7 +91,7 @@ pub fn valid_components(u: &[f32], v: &[f32], status: &[Status]) -> (Vec<f32>, V
 /// `value · scale` over [0, 1) (`docs/algorithms.md` §16.7, anchors §2.2): 0 for uniform
 /// fractional parts, 1 when all displacements are integers. `scale` turns values into
 /// displacements in px (e.g. τ in ms for velocities in px/ms; 1 for displacements). With
-/// n values the index of uniform data is still about `2·sqrt(10/n)` (sampling noise). NaN
+/// n values the index of uniform data is still about `3·sqrt(10/n)` (sampling noise). NaN
 /// without finite values.
 pub fn peak_locking_index(values: &[f32], scale: f64) -> f64 {
     let h = fractional_histogram(values, scale);
@@ -145,13 +145,14 @@ const PANEL_H: f64 = 260.0;
 const BAR: Colour = [70, 118, 178];
 
 /// The peak-locking index that `n` values with uniformly distributed fractional parts give
-/// through sampling noise alone, about `2·sqrt(10/n)` (each of the 10 bins holds n/10 ± its
-/// square root); NaN without values.
+/// through sampling noise alone, about `3·sqrt(10/n)`: each of the 10 bins holds n/10 ± its
+/// square root, and the expected range of 10 such counts is about 3 of those standard
+/// deviations; NaN without values.
 pub fn peak_locking_noise(n: u64) -> f64 {
     if n == 0 {
         f64::NAN
     } else {
-        (2.0 * (10.0 / n as f64).sqrt()).min(1.0)
+        (3.0 * (10.0 / n as f64).sqrt()).min(1.0)
     }
 }
 
@@ -164,7 +165,7 @@ pub fn peak_locking_caption(n: u64) -> [String; 2] {
          0 flat, 1 all at whole pixels."
             .into(),
         format!(
-            "Noise alone gives about {:.2} here (2·sqrt(10/n)). Far above that, tall bars at \
+            "Noise alone gives about {:.2} here (3·sqrt(10/n)). Far above that, tall bars at \
              0 and 1 with displacements spread over pixels: peak locking.",
             peak_locking_noise(n)
         ),
@@ -193,7 +194,7 @@ pub fn velocity_histograms(u: &[f32], v: &[f32], style: &HistogramStyle) -> RgbI
     let caption = peak_locking_caption(frac.total());
     let frac_label = match style.displacement_ms {
         Some(_) => "frac(u·τ), frac(v·τ) [px]".to_string(),
-        None => "frac(u), frac(v) [px]".to_string(),
+        None => format!("frac(u), frac(v) [{}]", style.units),
     };
     let panels = [
         (
@@ -224,11 +225,18 @@ pub fn velocity_histograms(u: &[f32], v: &[f32], style: &HistogramStyle) -> RgbI
     let top = PAD + style.title.as_ref().map_or(0, |_| th + 2 * GAP) + th + GAP;
     let caption_top = TICK + GAP + th + GAP + th + 2 * GAP;
     let bottom = caption_top + caption.len() as i64 * (th + GAP) + PAD;
-    let width = PAD
+    let panels_width = PAD
         + lefts
             .iter()
             .map(|l| l + PANEL_W as i64 + 3 * PAD)
             .sum::<i64>();
+    // Wide enough for the caption lines too, so that none is cut off.
+    let caption_width = caption
+        .iter()
+        .map(|line| crate::render::font::text_width(line, TEXT) as i64 + 2 * PAD)
+        .max()
+        .unwrap_or(0);
+    let width = panels_width.max(caption_width);
     let height = top + PANEL_H as i64 + bottom;
     let mut img = RgbImage::from_pixel(width as u32, height as u32, [255, 255, 255].into());
     if let Some(title) = &style.title {
@@ -340,7 +348,7 @@ pub(crate) mod tests {
     fn the_caption_explains_the_peak_locking_index() {
         let [what, noise] = peak_locking_caption(1000);
         assert!(what.contains("0 flat, 1 all at whole pixels"), "{what}");
-        assert!(noise.contains("about 0.20 here"), "{noise}");
+        assert!(noise.contains("about 0.30 here"), "{noise}");
         assert!((peak_locking_noise(40) - 1.0).abs() < 1e-12);
         assert!(peak_locking_noise(0).is_nan());
         let img = velocity_histograms(
@@ -377,17 +385,43 @@ pub(crate) mod tests {
             .collect();
         assert!(peak_locking_index(&u, 1.0) < 0.01);
         assert!(peak_locking_index(&[f32::NAN], 1.0).is_nan());
-        // Pseudo-random uniform values: the index is only sampling noise, ≈ 2·sqrt(10/n).
+        // Pseudo-random uniform values: the index is only sampling noise, whose mean over
+        // many samples the noise level states (to within the scatter of 40 samples).
         let mut state = 7u64;
-        let r: Vec<f32> = (0..100_000)
-            .map(|_| {
-                state = state
-                    .wrapping_mul(6_364_136_223_846_793_005)
-                    .wrapping_add(1);
-                ((state >> 40) as f64 / (1u64 << 24) as f64 * 20.0 - 10.0) as f32
-            })
-            .collect();
-        assert!(peak_locking_index(&r, 1.0) < 0.05);
+        let mut uniform = |n: usize| -> Vec<f32> {
+            (0..n)
+                .map(|_| {
+                    state = state
+                        .wrapping_mul(6_364_136_223_846_793_005)
+                        .wrapping_add(1);
+                    ((state >> 40) as f64 / (1u64 << 24) as f64 * 20.0 - 10.0) as f32
+                })
+                .collect()
+        };
+        assert!(peak_locking_index(&uniform(100_000), 1.0) < 0.05);
+        let mean = (0..40)
+            .map(|_| peak_locking_index(&uniform(10_000), 1.0))
+            .sum::<f64>()
+            / 40.0;
+        let ratio = mean / peak_locking_noise(10_000);
+        assert!(
+            (0.8..1.2).contains(&ratio),
+            "mean index {mean}, ratio {ratio}"
+        );
+    }
+
+    #[test]
+    fn the_caption_fits_the_figure() {
+        let u: Vec<f32> = (0..1000).map(|i| i as f32 * 0.01).collect();
+        let style = HistogramStyle {
+            displacement_ms: Some(1.0),
+            ..HistogramStyle::default()
+        };
+        let img = velocity_histograms(&u, &u, &style);
+        for line in peak_locking_caption(2000) {
+            let needed = crate::render::font::text_width(&line, TEXT) + 2 * PAD as u32;
+            assert!(needed <= img.width(), "{needed} > {}: {line}", img.width());
+        }
     }
 
     #[test]

@@ -16,6 +16,7 @@ pub fn run_estimator<E: Estimator>(
 ) -> Result<(), Error> {
     let input = run.input_path();
     let planned = run.plan_fields(options, estimator.time_extent_us(), run.slab_us())?;
+    crate::interrupt::check(&run.output)?;
     let described = planned.describe_times();
     let PlannedFields {
         mut reader,
@@ -39,10 +40,13 @@ pub fn run_estimator<E: Estimator>(
     let mut progress = FieldProgress::new(run, g, times.len(), estimator.time_extent_us());
     let (mut series, summary) =
         process_recording(&mut reader, g, estimator, &params, &times, &mut |d| {
-            progress.on_field(d);
-            crate::interrupt::check(&run.output)
+            progress.on_field(d)?;
+            if d.done < d.total {
+                crate::interrupt::check(&run.output)?;
+            }
+            Ok(())
         })?;
-    let frames = progress.finish()?;
+    let frames = progress.finish();
     super::check_run_found_events(run, &summary, &described, params.polarity)?;
     series.time_origin_us = Some(time_origin_us);
     finish_recording_run(run, &mut series, &summary, started, &reader.report())?;

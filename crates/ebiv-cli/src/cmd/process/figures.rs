@@ -24,7 +24,6 @@ pub struct FieldProgress<'a> {
     extent_us: (i64, i64),
     bar: indicatif::ProgressBar,
     figures: Vec<image::RgbImage>,
-    error: Option<Error>,
 }
 
 impl<'a> FieldProgress<'a> {
@@ -41,31 +40,32 @@ impl<'a> FieldProgress<'a> {
             extent_us,
             bar: count_bar(fields as u64, "fields"),
             figures: Vec::new(),
-            error: None,
         }
     }
 
-    /// Advance the bar and draw the field (the first failure to write stops the drawing).
-    pub fn on_field(&mut self, d: &FieldDone) {
+    /// Advance the bar and draw the field; an error if its figure cannot be written. A field
+    /// whose windows held no event is not drawn (it would be a blank figure; the run reports
+    /// empty fields).
+    pub fn on_field(&mut self, d: &FieldDone) -> Result<(), Error> {
         self.bar.set_position(d.done as u64);
-        if let (Some(dir), None) = (&self.run.png, &self.error) {
-            let figure = field_figure(d, self.geometry, self.run, self.extent_us);
-            let path = dir.join(format!("field_{:04}.png", d.done - 1));
-            if let Err(e) = save_png(&figure, &path) {
-                self.error = Some(e);
-            } else if self.figures.len() < MAX_GIF_FRAMES {
-                self.figures.push(figure);
-            }
+        let Some(dir) = &self.run.png else {
+            return Ok(());
+        };
+        if d.field.event_count.iter().all(|&n| n == 0) {
+            return Ok(());
         }
+        let figure = field_figure(d, self.geometry, self.run, self.extent_us);
+        save_png(&figure, &dir.join(format!("field_{:04}.png", d.done - 1)))?;
+        if self.figures.len() < MAX_GIF_FRAMES {
+            self.figures.push(figure);
+        }
+        Ok(())
     }
 
-    /// Clear the bar; the figures for the animation, or the first error.
-    pub fn finish(self) -> Result<Vec<image::RgbImage>, Error> {
+    /// Clear the bar; the figures for the animation.
+    pub fn finish(self) -> Vec<image::RgbImage> {
         self.bar.finish_and_clear();
-        match self.error {
-            Some(e) => Err(e),
-            None => Ok(self.figures),
-        }
+        self.figures
     }
 }
 

@@ -30,6 +30,7 @@ pub fn run_images(run: &Resolved) -> Result<(), Error> {
     let bar = count_bar(paths.len() as u64, "images");
     let frames = load_images(&paths, run.ensemble, &mut || bar.inc(1))?;
     bar.finish_and_clear();
+    crate::interrupt::check(&run.output)?;
     let g = frames[0].geometry();
     let mut params = ImageSeriesParams {
         piv: run.piv.clone(),
@@ -65,7 +66,9 @@ pub fn run_images(run: &Resolved) -> Result<(), Error> {
     let mut figures = Vec::new();
     let (mut series, summary) = piv_image_series(&frames, &paths, &params, &mut |done| {
         bar.inc(1);
-        crate::interrupt::check(&run.output)?;
+        if done.index + 1 < fields {
+            crate::interrupt::check(&run.output)?;
+        }
         let Some(dir) = &run.png else {
             return Ok(());
         };
@@ -185,6 +188,7 @@ pub fn run_events(run: &Resolved, options: &ReadOptions) -> Result<(), Error> {
     let input = run.input_path();
     let (before, after) = params.time_extent_us();
     let planned = run.plan_fields(options, (before, after), before + after)?;
+    crate::interrupt::check(&run.output)?;
     let described = planned.describe_times();
     let PlannedFields {
         mut reader,
@@ -213,10 +217,13 @@ pub fn run_events(run: &Resolved, options: &ReadOptions) -> Result<(), Error> {
     let started = Instant::now();
     let mut progress = FieldProgress::new(run, g, times.len(), (before, after));
     let (mut series, summary) = piv_events(&mut reader, g, &params, &times, &mut |d| {
-        progress.on_field(d);
-        crate::interrupt::check(&run.output)
+        progress.on_field(d)?;
+        if d.done < d.total {
+            crate::interrupt::check(&run.output)?;
+        }
+        Ok(())
     })?;
-    let figures = progress.finish()?;
+    let figures = progress.finish();
     super::check_run_found_events(run, &summary, &described, run.frames.polarity)?;
     series.time_origin_us = Some(time_origin_us);
     finish_recording_run(run, &mut series, &summary, started, &reader.report())?;
