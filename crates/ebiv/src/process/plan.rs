@@ -260,3 +260,77 @@ pub fn coverage(
         geometry_from_events,
     })
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A CSV recording of ON events at 0, 1000, …, 9000 µs (one per ms, x = y = k), with or
+    /// without a stated sensor size.
+    fn recording(dir: &Path, geometry: bool) -> std::path::PathBuf {
+        let mut text = String::from("t,x,y,p\n");
+        if geometry {
+            text.push_str("# geometry: 32x32\n");
+        }
+        for k in 0..10 {
+            text.push_str(&format!("{},{k},{k},1\n", 1_000_000 + k * 1000));
+        }
+        let path = dir.join(if geometry { "g.csv" } else { "n.csv" });
+        std::fs::write(&path, text).unwrap();
+        path
+    }
+
+    #[test]
+    fn coverage_ends_at_the_recording_and_refuses_empty_intervals() {
+        let dir = tempfile::tempdir().unwrap();
+        for geometry in [true, false] {
+            let path = recording(dir.path(), geometry);
+            let o = ReadOptions::default();
+            let on = PolaritySelection::Positive;
+            let c = coverage(&path, &o, (Some(2000), Some(50_000)), false, on).unwrap();
+            assert_eq!((c.start_us, c.end_us), (1_002_000, 1_009_001));
+            assert_eq!(c.requested_end_us, Some(1_050_000));
+            assert_eq!(c.events, 8);
+            let c = coverage(&path, &o, (None, Some(3000)), false, on).unwrap();
+            assert_eq!(
+                (c.end_us, c.requested_end_us, c.events),
+                (1_003_000, None, 3)
+            );
+            let late = coverage(&path, &o, (Some(20_000), None), false, on).unwrap_err();
+            assert!(matches!(late, Error::Empty { .. }), "{late}");
+            assert!(
+                late.to_string().contains("starts after the last event"),
+                "{late}"
+            );
+            let off = coverage(&path, &o, (None, None), false, PolaritySelection::Negative);
+            let off = off.unwrap_err().to_string();
+            assert!(off.contains("no event of polarity `neg`"), "{off}");
+        }
+    }
+
+    #[test]
+    fn a_slab_longer_than_the_recording_is_refused_whether_or_not_the_size_is_stated() {
+        let dir = tempfile::tempdir().unwrap();
+        for geometry in [true, false] {
+            let path = recording(dir.path(), geometry);
+            let o = ReadOptions::default();
+            let err = plan_fields(&path, &o, None, false, (6000, 6000), 12_000)
+                .err()
+                .unwrap()
+                .to_string();
+            assert!(
+                err.contains("shorter than the time one field needs"),
+                "{err}"
+            );
+            let planned = plan_fields(&path, &o, None, false, (2000, 2000), 4000).unwrap();
+            assert_eq!(planned.times, [1_002_000, 1_006_000]);
+            assert_eq!(planned.time_origin_us, 1_000_000);
+            let text = planned.describe_times();
+            assert!(
+                text.starts_with("2 field(s) from 2.000 ms to 6.000 ms"),
+                "{text}"
+            );
+            assert!(text.contains("camera time 1002000 to 1006000 µs"), "{text}");
+        }
+    }
+}
