@@ -1,6 +1,6 @@
 //! The event model: one change-detection event per pixel, stored as a struct of arrays.
 //!
-//! Conventions (see `DESIGN.md`): time is `i64` microseconds as the camera decoded it,
+//! Conventions: time is `i64` microseconds as the camera decoded it,
 //! coordinates are image coordinates (x right, y down, origin top-left), polarity `1` = ON
 //! (brightness increased), `0` = OFF.
 

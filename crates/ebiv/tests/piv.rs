@@ -66,8 +66,8 @@ fn standard_images(size: u32) -> ParticleImageParams {
     }
 }
 
-/// Uniform shifts 0 … 1 px in steps of 0.1 px along both axes (the sub-pixel sweep of
-/// anchors.md §2.2): single pass shows the loss-of-pairs bias toward zero, multi-pass with
+/// Uniform shifts 0 … 1 px in steps of 0.1 px along both axes (the classic sub-pixel
+/// sweep of PIV error studies): single pass shows the loss-of-pairs bias toward zero, multi-pass with
 /// deformation bounds bias by 0.01 px and RMS error by 0.02 px at every shift.
 #[test]
 fn uniform_sub_pixel_sweep_meets_the_bias_and_rms_targets() {
@@ -100,8 +100,8 @@ fn uniform_sub_pixel_sweep_meets_the_bias_and_rms_targets() {
         );
         single_worst = single_worst.max(bias1[0].abs()).max(bias1[1].abs());
     }
-    // Single pass without window offset: the classic negative bias of ≈ 0.04 px (OpenPIV
-    // measures 0.047 px on the same kind of images, anchors.md §2.2).
+    // Single pass without window offset: the classic negative bias of ≈ 0.04 px (the
+    // loss of particle pairs at the window edges).
     assert!(single_worst > 0.02, "single-pass bias {single_worst}");
 }
 
@@ -181,7 +181,7 @@ fn components(
 /// locking beyond sampling noise), and the error's dependence on the fraction stays below
 /// 0.005 px (measured: 0.002 px, the residual interpolation bias of the deformation, which
 /// is above the 0.0002 px noise of this large sample). The test can fail: a single pass on
-/// 1 px particles locks (anchors.md §2.2).
+/// 1 px particles locks.
 #[test]
 fn no_peak_locking_beyond_sampling_noise() {
     let truth = |x: f64, y: f64| [0.3 + 3.0 * y / 512.0, -0.2 + 2.5 * x / 512.0];

@@ -6,7 +6,7 @@ use ebiv::sim::piv_images::{particle_image_pair, ParticleImageParams};
 use std::time::Instant;
 
 /// Settings of the PIV benchmark (defaults: the 1024×1024, 64/32/16 px, 50 % overlap case
-/// timed for OpenPIV in anchors.md §2.1).
+/// the OpenPIV benchmarks time).
 #[derive(Debug, Args)]
 pub struct PivBenchArgs {
     /// Image width and height, px.

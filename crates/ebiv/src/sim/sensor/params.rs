@@ -39,7 +39,7 @@ pub enum TimestampMode {
 /// | `shot_noise_rate_hz` | 0 | 0.5 | 5 | v2e noisy preset 5 Hz (§4.2); gen4 a tenth of it |
 /// | `noise_rate_cov_decades` | 0 | 0.1 | 0.1 | v2e `noise_rate_cov_decades` (§2.6) |
 /// | `hot_pixel_fraction` / `_rate_hz` | 0 / 0 | 1e-4 / 50 Hz | 0 / 0 | model choice (no published value) |
-/// | `bandwidth_ev_per_s` | none | 4e8 | none | row-wise loss above ≈ 400 ev/µs (anchors.md §4, §2.11) |
+/// | `bandwidth_ev_per_s` | none | 4e8 | none | row-wise loss above ≈ 400 ev/µs (§4, §2.11) |
 /// | `bandwidth_burst_events` | 1024 | 1024 | 1024 | model choice (readout FIFO depth) |
 /// | `timestamp` | round | truncate | truncate | camera clock counter; v2e/IEBCS truncate (§2.10) |
 ///

@@ -140,8 +140,8 @@ impl Reader {
 
 /// Walks the header of a classic NetCDF file and checks that every count and every
 /// variable's size fits in the file. The `netcdf3` parser allocates from these counts before
-/// checking them, so a corrupt header could otherwise exhaust memory (DESIGN.md: no header
-/// value may make ebiv allocate without bound).
+/// checking them, so a corrupt header could otherwise exhaust memory (no header value may make
+/// ebiv allocate without bound).
 struct HeaderCheck<R> {
     input: R,
     pos: u64,
