@@ -64,6 +64,9 @@ pub fn run(args: &RenderArgs) -> Result<(), ebiv::Error> {
     // Before reading anything: the output format and the enlargement.
     figure_format(&args.output, "output")?;
     super::check_output_path(&args.output, &[])?;
+    // Ctrl-C stops the reading at its next batch; the figure, written through a temporary
+    // file once everything is read, is then not written at all.
+    let _catch = crate::interrupt::catch();
     let options = args.input.read_options()?;
     let origin = if args.absolute_time {
         0
@@ -98,6 +101,7 @@ pub fn run(args: &RenderArgs) -> Result<(), ebiv::Error> {
             None => {
                 let mut stats = ebiv::stats::RecordingStats::new();
                 super::stream_file(&args.file, &options, |_, b| {
+                    crate::interrupt::check(&args.output)?;
                     stats.add(b);
                     Ok(true)
                 })?;
@@ -108,6 +112,7 @@ pub fn run(args: &RenderArgs) -> Result<(), ebiv::Error> {
         style.scale_for(geometry.width, geometry.height)?;
         let mut map = EventRateMap::new(geometry);
         super::stream_file(&args.file, &options, |_, batch| {
+            crate::interrupt::check(&args.output)?;
             map.add(batch, start, end, args.polarity);
             Ok(!batch.t.iter().all(|&t| t >= end) || batch.is_empty())
         })?;
@@ -125,7 +130,7 @@ pub fn run(args: &RenderArgs) -> Result<(), ebiv::Error> {
             img.mean_active_rate
         );
     } else {
-        let (events, geometry) = collect(&args.file, &options, start, end)?;
+        let (events, geometry) = collect(&args.file, &options, (start, end), &args.output)?;
         let img = time_coded_image(&events, geometry, t0, args.dt / 2, args.polarity);
         if img.events == 0 {
             return Err(nothing_to_draw(args, t0 - origin));
@@ -178,8 +183,8 @@ fn nothing_to_draw(args: &RenderArgs, t0_from_origin: i64) -> ebiv::Error {
 fn collect(
     path: &Path,
     options: &ebiv::io::ReadOptions,
-    start: i64,
-    end: i64,
+    (start, end): (i64, i64),
+    output: &Path,
 ) -> Result<(EventBuffer, Geometry), ebiv::Error> {
     let mut reader = ebiv::io::open(path, options)?;
     if start > i64::MIN {
@@ -188,6 +193,7 @@ fn collect(
     let mut events = EventBuffer::new();
     let mut batch = EventBuffer::new();
     while reader.read_batch(&mut batch)? {
+        crate::interrupt::check(output)?;
         let done = batch.t.iter().all(|&t| t >= end) && !batch.is_empty();
         batch.retain(|e| e.t >= start && e.t < end);
         events.extend_from(&batch);
