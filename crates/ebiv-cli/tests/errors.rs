@@ -362,3 +362,39 @@ fn render_refuses_to_draw_nothing() {
     let err = fails(&["render", s(&wall), "-o", s(&missing)]);
     assert!(err.contains("does not exist"), "{err}");
 }
+
+/// The summary says which flags the invalid vectors carry, so that the valid share and the
+/// validation count add up (out-of-range vectors are not flagged by the validation).
+#[test]
+fn the_summary_counts_invalid_vectors_by_flag() {
+    let Some(wall) = data(WALL) else { return };
+    let dir = tempfile::tempdir().unwrap();
+    let csv = dir.path().join("f.csv");
+    let o = ebiv(&["process", s(&wall), "-o", s(&csv)]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let out = common::stdout(&o);
+    let line = out
+        .lines()
+        .find_map(|l| l.strip_prefix("invalid vectors by flag: "))
+        .unwrap_or_else(|| panic!("no flag line in {out}"));
+    let counts: Vec<(usize, &str)> = line
+        .split(", ")
+        .map(|part| {
+            let (n, name) = part.split_once(' ').unwrap();
+            (n.parse().unwrap(), name)
+        })
+        .collect();
+    let text = std::fs::read_to_string(&csv).unwrap();
+    let header: Vec<&str> = text.lines().next().unwrap().split(',').collect();
+    let status = header.iter().position(|&h| h == "status").unwrap();
+    let invalid = text
+        .lines()
+        .skip(1)
+        .filter(|l| l.split(',').nth(status) != Some("0"))
+        .count();
+    assert!(invalid > 0);
+    let total: usize = counts.iter().map(|c| c.0).sum();
+    assert!(total >= invalid, "{line}: {invalid} invalid");
+    assert!(counts.iter().all(|c| c.0 <= invalid), "{line}");
+    assert!(counts.iter().any(|c| c.1 == "median_test"), "{line}");
+}

@@ -99,8 +99,28 @@ pub fn finish_recording_run(
         summary.events_read as f64 / seconds / 1e6,
         summary.vectors as f64 / seconds
     );
+    print_invalid_flags(series);
     println!("wrote {}", run.output.display());
     Ok(())
+}
+
+/// "invalid: 6 median_test, 5 out_of_range": how many invalid vectors carry each status flag
+/// (a vector may carry several), so that the valid share and the validation count add up.
+pub fn print_invalid_flags(series: &FieldSeries) {
+    let counts: Vec<String> = ebiv::field::Status::NAMES
+        .iter()
+        .filter_map(|&(name, flag)| {
+            let n = series
+                .status
+                .iter()
+                .filter(|s| !s.is_valid() && s.contains(flag))
+                .count();
+            (n > 0).then(|| format!("{n} {name}"))
+        })
+        .collect();
+    if !counts.is_empty() {
+        println!("invalid vectors by flag: {}", counts.join(", "));
+    }
 }
 
 /// "64x64 px step 32 -> 40x40 px step 20".

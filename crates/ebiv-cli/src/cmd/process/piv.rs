@@ -93,6 +93,7 @@ pub fn run_images(run: &Resolved) -> Result<(), Error> {
         100.0 * summary.valid as f64 / summary.vectors.max(1) as f64,
         summary.flagged,
     );
+    super::figures::print_invalid_flags(&series);
     println!(
         "wrote {} ({} in {})",
         run.output.display(),
