@@ -59,7 +59,7 @@ pub fn run(args: &ConvertArgs) -> Result<(), ebiv::Error> {
         Format::Evt3 => args.output_encoding.format(),
         other => other,
     };
-    super::check_output_path(&args.output, &[])?;
+    super::check_output_path(&args.output)?;
     let origin = if args.absolute_time {
         0
     } else {

@@ -53,40 +53,16 @@ pub fn print_report_summary(report: &ebiv::io::DecodeReport) {
     }
 }
 
-/// Check, before any work, that `path` can be written: its folder exists and is a folder, the
-/// path itself is not a folder, and (when `extensions` is not empty) its extension is one of
-/// `extensions` (lower case, with the format each names). A run that would fail only when it
-/// writes its result fails here instead, before the processing.
-pub fn check_output_path(path: &Path, extensions: &[(&str, &str)]) -> Result<(), ebiv::Error> {
+/// Check, before any work, that `path` can be written: its folder exists and is a folder, and
+/// the path itself is not a folder. A run that would fail only when it writes its result fails
+/// here instead, before the processing.
+pub fn check_output_path(path: &Path) -> Result<(), ebiv::Error> {
     let what = path.display().to_string();
     if path.is_dir() {
         return Err(ebiv::Error::Write {
-            what: what.clone(),
+            what,
             message: "it is a folder; give a file name".into(),
         });
-    }
-    if !extensions.is_empty() {
-        let ext = path
-            .extension()
-            .and_then(|e| e.to_str())
-            .map(str::to_ascii_lowercase)
-            .unwrap_or_default();
-        if !extensions.iter().any(|(e, _)| *e == ext) {
-            let known = extensions
-                .iter()
-                .map(|(e, f)| format!(".{e} ({f})"))
-                .collect::<Vec<_>>()
-                .join(", ");
-            let seen = if ext.is_empty() {
-                "has no extension".to_string()
-            } else {
-                format!("ends in `.{ext}`")
-            };
-            return Err(ebiv::Error::Write {
-                what,
-                message: format!("the output {seen}; use one of {known}"),
-            });
-        }
     }
     let folder = match path.parent() {
         Some(p) if !p.as_os_str().is_empty() => p,

@@ -63,7 +63,7 @@ pub fn run(args: &RenderArgs) -> Result<(), ebiv::Error> {
     }
     // Before reading anything: the output format and the enlargement.
     figure_format(&args.output, "output")?;
-    super::check_output_path(&args.output, &[])?;
+    super::check_output_path(&args.output)?;
     // Ctrl-C stops the reading at its next batch; the figure, written through a temporary
     // file once everything is read, is then not written at all.
     let _catch = crate::interrupt::catch();

@@ -44,34 +44,41 @@ pub const FIELD_EXTENSIONS: [(&str, &str); 6] = [
 /// ([`write_field_netcdf`]), `.npz` ([`write_field_npz`]), `.csv` ([`write_field_csv`]),
 /// `.dat` or `.tec` ([`write_field_tecplot`]), `.vtk` ([`write_field_vtk`]).
 pub fn write_field(field: &FieldSeries, path: &Path) -> Result<()> {
+    match field_extension(path)?.as_str() {
+        "nc" => write_field_netcdf(field, path),
+        "npz" => write_field_npz(field, path),
+        "csv" => write_field_csv(field, path),
+        "dat" | "tec" => write_field_tecplot(field, path),
+        _ => write_field_vtk(field, path), // "vtk", the last known extension
+    }
+}
+
+/// The lower-case extension of `path` if [`write_field`] knows it (one of
+/// [`FIELD_EXTENSIONS`]), else an error listing the known ones: a caller checks its output
+/// with it before the work that produces the field.
+pub fn field_extension(path: &Path) -> Result<String> {
     let ext = path
         .extension()
         .and_then(|e| e.to_str())
         .map(str::to_ascii_lowercase)
         .unwrap_or_default();
-    match ext.as_str() {
-        "nc" => write_field_netcdf(field, path),
-        "npz" => write_field_npz(field, path),
-        "csv" => write_field_csv(field, path),
-        "dat" | "tec" => write_field_tecplot(field, path),
-        "vtk" => write_field_vtk(field, path),
-        _ => {
-            let known = FIELD_EXTENSIONS
-                .iter()
-                .map(|(e, f)| format!(".{e} ({f})"))
-                .collect::<Vec<_>>()
-                .join(", ");
-            let seen = if ext.is_empty() {
-                "no extension".to_string()
-            } else {
-                format!("the extension `.{ext}`")
-            };
-            Err(Error::unsupported(
-                path.display().to_string(),
-                format!("cannot tell the field format from {seen}; use one of {known}"),
-            ))
-        }
+    if FIELD_EXTENSIONS.iter().any(|(e, _)| *e == ext) {
+        return Ok(ext);
     }
+    let known = FIELD_EXTENSIONS
+        .iter()
+        .map(|(e, f)| format!(".{e} ({f})"))
+        .collect::<Vec<_>>()
+        .join(", ");
+    let seen = if ext.is_empty() {
+        "no extension".to_string()
+    } else {
+        format!("the extension `.{ext}`")
+    };
+    Err(Error::unsupported(
+        path.display().to_string(),
+        format!("cannot tell the field format from {seen}; use one of {known}"),
+    ))
 }
 
 /// Ground-truth particle tracks as CSV: header `id,t_us,x,y,z,u,v` (px, µs, px/ms).

@@ -45,7 +45,8 @@ pub fn run(args: &ProcessArgs) -> Result<(), ebiv::Error> {
     }
     args.settings.apply(&mut settings)?;
     let run = settings.resolve()?;
-    super::check_output_path(&run.output, &ebiv::export::FIELD_EXTENSIONS)?;
+    super::check_output_path(&run.output)?;
+    ebiv::export::field_extension(&run.output)?;
     let options = args.input.read_options()?;
     // Ctrl-C stops the run after the field being evaluated: the field file is not written
     // (it is written whole at the end, or not at all), and every figure on disk is complete.
