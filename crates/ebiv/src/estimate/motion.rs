@@ -18,14 +18,17 @@
 //! Two searches ([`SearchMethod`]). The paper's prescription ([`SearchMethod::Grid`]): a
 //! coarse grid, 5 × 5 refinements down to 0.05 px/ms and a 3-point fit, 100–200 IWE
 //! evaluations per window. The default ([`SearchMethod::Newton`]) uses the fact that with a
-//! Gaussian splat Σ I² is a smooth function of the velocity with analytic derivatives (Gallego et
-//! al. 2018): a histogram of event-pair velocities gives a start over twice the range in one
-//! pass over the pairs, and Newton steps with the analytic gradient and Hessian converge to
-//! the continuous maximum in about three evaluations (no lattice, no fit bias). Windows
-//! whose vote is ambiguous (peak ratio < 1.5: shear, few particles) fall back to the grid.
-//! On the simulated tests it is as accurate or better (uniform flow RMS 0.013 → 0.010
-//! px/ms, turntable DVR 119 both, Lamb–Oseen multi-pass RMS 0.196 → 0.163) except for one
-//! more outlier in the single-pass Lamb–Oseen field (RMS 0.349 → 0.369).
+//! Gaussian splat Σ I² is a smooth function of the velocity with analytic derivatives
+//! (Gallego et al. 2018): Newton steps with the analytic gradient and Hessian converge to the
+//! continuous maximum in about three evaluations (no lattice, no fit bias). The objective
+//! has a narrow true maximum, about particle size / T wide in velocity, beside broad false
+//! ones (at zero velocity wherever pixels fire several times per passing particle), so the
+//! ascent starts from every candidate that may hold the global maximum: in a first pass a
+//! sum of correlation of the same events ([`start_estimator`]), a histogram of event-pair
+//! velocities over twice the search range, and zero velocity where its objective competes;
+//! with a predictor, the predictor and the histogram. The highest maximum wins, and its
+//! height against the best value elsewhere is the vector's peak ratio
+//! ([`ContrastMaximization`]).
 
 mod iwe;
 mod newton;
@@ -36,6 +39,7 @@ mod votes;
 
 use serde::{Deserialize, Serialize};
 
+use super::corrsum::{CorrSumParams, CorrSumScratch, SumOfCorrelation};
 use super::{gather_predicted, Estimator, Prediction, WindowEstimate};
 use crate::error::{Error, Result};
 use crate::field::Status;
@@ -97,12 +101,13 @@ impl Default for Splat {
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
 #[serde(rename_all = "kebab-case")]
 pub enum SearchMethod {
-    /// Start at the peak of a histogram of event-pair velocities, then Newton steps with the
-    /// objective's analytic gradient and Hessian until the step is below 0.005 px/ms (or
-    /// below 0.02 px/ms after a step four times longer): about three objective evaluations
-    /// per window. Needs a smooth objective: with a bilinear
-    /// splat or an objective other than the variance or Σ I², and for windows whose vote is
-    /// ambiguous, [`SearchMethod::Grid`] is used instead.
+    /// Newton steps with the objective's analytic gradient and Hessian until the step is
+    /// below 0.005 px/ms (or below 0.02 px/ms after a step four times longer), about three
+    /// objective evaluations per ascent, from every start that may hold the global maximum:
+    /// a sum of correlation of the window (first pass) or the predictor, the peaks of a
+    /// histogram of event-pair velocities, and zero velocity where its objective competes.
+    /// Needs a smooth objective: with a bilinear splat or an objective other than the
+    /// variance or Σ I², [`SearchMethod::Grid`] is used instead.
     #[default]
     Newton,
     /// The paper's prescription: a coarse grid (through a pyramid of coarser canvases for
@@ -265,14 +270,41 @@ pub struct ContrastMaximization {
     params: MotionParams,
     fine: SplatTable,
     coarse: SplatTable,
+    /// Sum of correlation over the same slab, whose velocity starts the search of windows
+    /// without a predictor ([`start_estimator`]).
+    start: SumOfCorrelation,
 }
 
 /// Per-thread working memory of [`ContrastMaximization`].
-#[derive(Debug, Clone, Default)]
+#[derive(Debug, Default)]
 pub struct MotionScratch {
     gathered: WindowEvents,
     events: Events,
     search: SearchScratch,
+    start: Option<CorrSumScratch>,
+}
+
+/// The sum of correlation that gives a window without a predictor one start of its search:
+/// the slab `T` split as sub-volumes of `T − τ` at a delay `τ = T/5` in 16 slices.
+///
+/// Contrast maximisation has a narrow true maximum (about particle size / T wide in
+/// velocity) beside broad false ones: where every pixel fires several times as a particle
+/// passes, or several particles pass one pixel within the slab (dense seeding, particle
+/// images of a pixel), all events of a pixel stack up at zero velocity. A vote of event
+/// pairs can miss the true maximum there (algorithms.md §4); the correlation of two
+/// sub-volumes cannot, as it compares whole images rather than pairs. Its search reaches a
+/// third of the window over τ: `5 W / (3 T)`, beyond the `W / T` at which a particle
+/// crosses the window within the slab. Only a start: the velocity comes from the contrast
+/// maximum, which wins over the other starts by its objective.
+fn start_estimator(slab_us: i64) -> Result<SumOfCorrelation> {
+    let tau_us = (slab_us / 5).max(1);
+    SumOfCorrelation::new(CorrSumParams {
+        slab_us: (slab_us - tau_us).max(1),
+        tau_us,
+        slices: 16,
+        min_events: 1,
+        ..CorrSumParams::default()
+    })
 }
 
 impl ContrastMaximization {
@@ -282,6 +314,7 @@ impl ContrastMaximization {
         Ok(ContrastMaximization {
             fine: SplatTable::new(params.splat),
             coarse: SplatTable::new(Splat::Bilinear),
+            start: start_estimator(params.slab_us)?,
             params,
         })
     }
@@ -387,11 +420,23 @@ impl Estimator for ContrastMaximization {
         let predictor = predictor
             .map(|p| p.velocity)
             .filter(|p| p[0].is_finite() && p[1].is_finite());
+        let correlated = match predictor {
+            Some(_) => None,
+            None => {
+                let scratch = scratch
+                    .start
+                    .get_or_insert_with(|| self.start.scratch(dims));
+                let e = self.start.estimate(slab, window, t0_us, None, scratch);
+                (e.status.is_valid() && e.u.is_finite() && e.v.is_finite()).then_some([e.u, e.v])
+            }
+        };
         let search = Search {
+            start: correlated,
             events: &scratch.events,
             window: dims,
             extent,
             centre: predictor.unwrap_or([0.0, 0.0]),
+            predicted: predictor.is_some(),
             range: self.search_range(dims, predictor.is_some()),
             params: &self.params,
             fine: &self.fine,

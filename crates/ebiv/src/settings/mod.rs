@@ -190,9 +190,10 @@ settings! {
         kernel: CorrKernel = CorrKernel::Auto; "KERNEL";
     }
     group "Motion compensation (motion)" {
-        /// How the contrast maximum is found: newton (analytic gradient and Hessian from an
-        /// event-pair vote, about three evaluations) or grid (the paper's coarse grid and
-        /// 5×5 refinement, 100–200 evaluations).
+        /// How the contrast maximum is found: newton (analytic gradient and Hessian, about
+        /// three evaluations per start; started from a sum of correlation, an event-pair
+        /// vote and zero velocity, the highest maximum wins) or grid (the paper's coarse
+        /// grid and 5×5 refinement, 100–200 evaluations).
         motion_search: SearchMethod = SearchMethod::Newton; "METHOD";
         /// Half-width of the velocity search range in px/ms. Default: window/slab, a
         /// quarter of it around a previous pass's prediction.

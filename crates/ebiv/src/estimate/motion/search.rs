@@ -18,13 +18,14 @@
 //!    step while it stays ≥ `final_step`.
 //! 4. A 3-point fit per axis (or a 2-D Gaussian) through the best lattice point.
 //!
-//! [`SearchMethod::Newton`] replaces all four steps, when the objective allows, by a
-//! pair-velocity vote ([`super::votes`]) and a Newton ascent ([`super::newton`]); an
-//! ambiguous vote hands the window to the steps above.
+//! [`SearchMethod::Newton`] replaces all four steps, when the objective allows, by Newton
+//! ascents ([`super::newton`]) from several starts: a given start (a sum of correlation in
+//! a first pass) or the predictor, the maxima of a pair-velocity vote ([`super::votes`]),
+//! and zero velocity where its objective competes. The highest maximum wins.
 
 use super::iwe::{evaluate, Canvas, Events, SplatTable, Workspace};
 use super::newton::ascend;
-use super::votes::{vote, VoteScratch};
+use super::votes::{vote, VoteScratch, MAX_STARTS};
 use super::{MotionParams, Objective, SearchMethod, Splat};
 use crate::field::Status;
 use crate::peak::{self, SubPixelFit};
@@ -33,8 +34,59 @@ use crate::peak::{self, SubPixelFit};
 const TOP_HALF: i64 = 2;
 /// Re-centrings allowed per level before moving on.
 const MAX_CLIMB: usize = 6;
-/// Vote peak ratios below this (or none) hand the window to the grid search.
-const AMBIGUOUS: f64 = 1.5;
+/// The vote map spans the vote's range in this many cells per half-width (at least the
+/// coarse step each).
+const VOTE_CELLS: f64 = 16.0;
+/// The centre of the range is climbed too where Σ I² there is at least this fraction of the
+/// best maximum's height above the lowest value seen.
+const CENTRE_COMPETES: f64 = 0.5;
+
+/// Largest peak ratio reported: a peak [`MAX_RATIO`] times higher than anything else above
+/// the background stands alone.
+const MAX_RATIO: f64 = 1000.0;
+/// The probes of the background lie this many basin half-widths from the best maximum.
+const PROBE: f64 = 2.0;
+
+/// The maximum with the highest value.
+fn best_of(maxima: &[([f64; 2], f64)]) -> Option<([f64; 2], f64)> {
+    maxima.iter().copied().max_by(|a, b| a.1.total_cmp(&b.1))
+}
+
+/// The lowest objective value evaluated during a search: the background the peak ratio is
+/// measured from.
+#[derive(Debug, Clone, Copy)]
+struct Seen {
+    lowest: f64,
+}
+
+impl Default for Seen {
+    fn default() -> Self {
+        Seen {
+            lowest: f64::INFINITY,
+        }
+    }
+}
+
+impl Seen {
+    fn add(&mut self, value: f64) {
+        if value.is_finite() {
+            self.lowest = self.lowest.min(value);
+        }
+    }
+}
+
+/// First-to-second peak ratio of the objective: `best` against `rival`, both above
+/// `background`, as the correlation peak ratio compares two peaks above zero. Near 1, two
+/// velocities explain the events about equally well (locking, shear, too few particles); NaN
+/// when neither rises above the background.
+fn peak_ratio(best: f64, rival: f64, background: f64) -> f64 {
+    let (a, b) = (best - background, rival - background);
+    if !(a > 0.0) {
+        return f64::NAN;
+    }
+    // A rival at the background itself: the ratio is large but finite.
+    a / b.max(a / MAX_RATIO)
+}
 
 /// Outcome of a search.
 #[derive(Debug, Clone, Copy)]
@@ -62,6 +114,10 @@ pub(crate) struct Search<'a> {
     /// Size of the box `[0, extent)` holding every event (at least the window), px.
     pub extent: [u32; 2],
     pub centre: [f64; 2],
+    /// Whether `centre` is a previous pass's prediction (else zero).
+    pub predicted: bool,
+    /// A start of the search besides the vote's (the velocity of a sum of correlation).
+    pub start: Option<[f64; 2]>,
     /// Half-width of the search range, px/ms.
     pub range: f64,
     pub params: &'a MotionParams,
@@ -219,9 +275,14 @@ impl Search<'_> {
     }
 
     /// Pair-velocity vote over `centre ± extent`, wider than the search box `centre ± half`,
-    /// then a Newton ascent from the vote's start with the highest objective. A maximum
-    /// outside the box is out of range. `None` if the vote is ambiguous or the canvas would
-    /// be unreasonably large: the grid search decides.
+    /// then Newton ascents from every start of the vote and, where the objective there is
+    /// competitive, from the centre of the range; the highest maximum wins. A maximum outside
+    /// the box is out of range. `None` if the canvas would be unreasonably large: the grid
+    /// search decides.
+    ///
+    /// The objective's own evidence gives the peak ratio ([`peak_ratio`]): the winner against
+    /// the best other maximum, or the best value seen outside the winner's basin, both above
+    /// the lowest value evaluated.
     fn newton(&self, half: f64, t_max: f64, s: &mut SearchScratch) -> Option<Outcome> {
         let p = self.params;
         let extent = half + half.max(2.0);
@@ -239,72 +300,157 @@ impl Search<'_> {
             peak: f64::NAN,
             peak_ratio: ratio,
         };
-        let cell = p.coarse_step.max(extent / 16.0);
-        let Some(vote) = vote(self.events, self.centre, extent, cell, &mut s.votes) else {
-            return Some(invalid(Status::NO_PEAK, f64::NAN));
-        };
-        if vote.ratio.is_nan() || vote.ratio < AMBIGUOUS {
-            // Several comparable velocity clusters (shear, few particles): the grid search
-            // of the whole range is more reliable than an ascent from one of them.
-            return None;
-        }
+        let cell = p.coarse_step.max(extent / VOTE_CELLS);
+        // The vote may have no start: every pair inside one pixel (slow flow) or outside the
+        // range. The centre is then the only start.
+        vote(self.events, self.centre, extent, cell, &mut s.votes);
         // Starts lie on vote cells, which may reach past the range by part of a cell: clamp
         // them to the range the canvas covers.
         let (c, e) = (self.centre, extent);
-        for start in &mut s.votes.starts {
-            *start = [
-                start[0].clamp(c[0] - e, c[0] + e),
-                start[1].clamp(c[1] - e, c[1] + e),
-            ];
+        let clamp = |v: [f64; 2]| {
+            [
+                v[0].clamp(c[0] - e, c[0] + e),
+                v[1].clamp(c[1] - e, c[1] + e),
+            ]
+        };
+        let basin = self.basin(t_max);
+        let mut seen = Seen::default();
+        // Maxima found, (velocity, Σ I²): one per start at most.
+        let mut found = [([0.0; 2], f64::NEG_INFINITY); MAX_STARTS + 2];
+        let mut count = 0;
+        let near = |a: [f64; 2], b: [f64; 2]| (a[0] - b[0]).hypot(a[1] - b[1]) <= basin;
+        // Starts in order of trust: the given start (a sum of correlation) or else the
+        // predictor, then the vote's; a start in the basin of a maximum found is skipped.
+        let first = self.start.or(self.predicted.then_some(self.centre));
+        let votes = s.votes.starts.len().min(MAX_STARTS);
+        for k in 0..=votes {
+            let start = match k {
+                0 => match first {
+                    Some(start) => clamp(start),
+                    None => continue,
+                },
+                k => clamp(s.votes.starts[k - 1]),
+            };
+            if found[..count].iter().any(|m| near(m.0, start)) {
+                continue;
+            }
+            let top = self.ascend(start, extent, &canvas, s);
+            seen.add(top.1);
+            found[count] = top;
+            count += 1;
         }
-        // Several starts: the one with the highest objective (one plain evaluation each).
-        let mut from = s.votes.starts[0];
-        if s.votes.starts.len() > 1 {
-            let mut best = f64::NEG_INFINITY;
-            for &start in &s.votes.starts {
-                let value = evaluate(
-                    self.events,
-                    start,
-                    &canvas,
-                    self.fine,
-                    Objective::SumOfSquares,
-                    &mut s.work,
-                );
-                if value > best {
-                    (best, from) = (value, start);
-                }
+        // Two plain evaluations twice the basin's half-width from the best maximum, on either
+        // side, sample the background the peak stands on.
+        let best_so_far = best_of(&found[..count]);
+        let around = best_so_far.map_or(self.centre, |m| m.0);
+        let mut probes = [([0.0; 2], 0.0); 2];
+        for (k, probe) in probes.iter_mut().enumerate() {
+            let d = if k == 0 { PROBE } else { -PROBE } * basin * std::f64::consts::FRAC_1_SQRT_2;
+            let at = clamp([around[0] + d, around[1] + d]);
+            *probe = (at, self.squares(at, &canvas, s));
+            seen.add(probe.1);
+        }
+        // The centre of the range without a predictor (zero velocity): one plain evaluation,
+        // and an ascent where it could compete with the best maximum (slow flows, whose
+        // pairs lie inside one pixel and do not vote) or where no start was found.
+        let mut at_centre = None;
+        if !self.predicted && !found[..count].iter().any(|m| near(m.0, self.centre)) {
+            let value = self.squares(self.centre, &canvas, s);
+            seen.add(value);
+            at_centre = Some(value);
+            let best = best_so_far.map_or(f64::NEG_INFINITY, |m| m.1);
+            if count == 0 || value - seen.lowest >= CENTRE_COMPETES * (best - seen.lowest) {
+                let top = self.ascend(self.centre, extent, &canvas, s);
+                seen.add(top.1);
+                found[count] = top;
+                count += 1;
             }
         }
-        let top = ascend(
-            self.events,
-            from,
-            self.centre,
-            extent,
-            &canvas,
-            self.fine,
-            &mut s.work,
-        );
+        let Some((velocity, squares)) = best_of(&found[..count]) else {
+            return Some(invalid(Status::NO_PEAK, f64::NAN));
+        };
+        // The rival: the highest value seen outside the winner's basin (another maximum, the
+        // centre, a probe).
+        let outside = |v: [f64; 2]| !near(v, velocity);
+        let mut rival = f64::NEG_INFINITY;
+        for (v, value) in found[..count].iter().chain(&probes) {
+            if outside(*v) {
+                rival = rival.max(*value);
+            }
+        }
+        if let Some(value) = at_centre.filter(|_| outside(self.centre)) {
+            rival = rival.max(value);
+        }
+        let ratio = peak_ratio(squares, rival, seen.lowest);
+        if !(squares - seen.lowest > 0.0) {
+            return Some(invalid(Status::NO_PEAK, ratio));
+        }
         // Within half a refinement step of the border counts as on it, as for the grid's
         // last lattice point.
         let edge = half - 0.5 * p.final_step;
-        let outside = (top.velocity[0] - self.centre[0]).abs() >= edge
-            || (top.velocity[1] - self.centre[1]).abs() >= edge;
-        if outside {
-            return Some(invalid(Status::OUT_OF_RANGE, vote.ratio));
+        let outside_range = (velocity[0] - self.centre[0]).abs() >= edge
+            || (velocity[1] - self.centre[1]).abs() >= edge;
+        if outside_range {
+            return Some(invalid(Status::OUT_OF_RANGE, ratio));
         }
         let peak = match p.objective {
             Objective::Variance => {
                 let (cells, n) = (canvas.cells() as f64, self.events.t.len() as f64);
-                top.squares / cells - (n / cells) * (n / cells)
+                squares / cells - (n / cells) * (n / cells)
             }
-            _ => top.squares,
+            _ => squares,
         };
         Some(Outcome {
-            velocity: top.velocity,
+            velocity,
             status: Status::VALID,
             peak,
-            peak_ratio: vote.ratio,
+            peak_ratio: ratio,
         })
+    }
+
+    /// Half-width of a maximum of Σ I² in velocity, px/ms: two maxima closer than this are
+    /// one. A particle image of about a pixel, splatted with σ, stays within about
+    /// `2σ + 1` px of itself while the velocity is off by less than that over the events'
+    /// largest time offset `t_max` (the peak's width is particle size / T, Willert & Klinner
+    /// 2022, §2.3); never below two refinement steps.
+    fn basin(&self, t_max: f64) -> f64 {
+        let sigma = match self.params.splat {
+            Splat::Gaussian { sigma } => sigma,
+            Splat::Bilinear => 0.5,
+        };
+        ((2.0 * sigma + 1.0) / t_max.max(1e-3)).max(2.0 * self.params.final_step)
+    }
+
+    /// Newton ascent of Σ I² from `start` within `centre ± extent`: the maximum and its value.
+    fn ascend(
+        &self,
+        start: [f64; 2],
+        extent: f64,
+        canvas: &Canvas,
+        s: &mut SearchScratch,
+    ) -> ([f64; 2], f64) {
+        let top = ascend(
+            self.events,
+            start,
+            self.centre,
+            extent,
+            canvas,
+            self.fine,
+            &mut s.work,
+        );
+        (top.velocity, top.squares)
+    }
+
+    /// Σ I² at `velocity` on `canvas` (one plain evaluation).
+    fn squares(&self, velocity: [f64; 2], canvas: &Canvas, s: &mut SearchScratch) -> f64 {
+        evaluate(
+            self.events,
+            velocity,
+            canvas,
+            self.fine,
+            Objective::SumOfSquares,
+            &mut s.work,
+        )
     }
 
     /// Objective at lattice point `k`.
@@ -408,7 +554,8 @@ mod timing {
             let mut sum = 0.0;
             for _ in 0..20 {
                 for (_, events) in &cases {
-                    sum += vote(events, [0.0, 0.0], 8.0, 0.5, &mut vs).map_or(0.0, |p| p.ratio);
+                    vote(events, [0.0, 0.0], 8.0, 0.5, &mut vs);
+                    sum += vs.starts.len() as f64;
                 }
             }
             eprintln!(
@@ -436,6 +583,8 @@ mod timing {
                         window: [40, 40],
                         extent: [40, 40],
                         centre: [0.0, 0.0],
+                        predicted: false,
+                        start: None,
                         range: 4.0,
                         params: &params,
                         fine: &fine,

@@ -14,12 +14,22 @@ use super::iwe::Events;
 use crate::peak::first_where;
 use crate::simd::avx2_available;
 
-/// Events voting at most (≈ 5 800 pairs); beyond, the events are thinned evenly in time.
+/// Events voting in a window of up to [`DENSE`] events (≈ 5 800 pairs); beyond, the events
+/// are thinned evenly in time.
 const MAX_EVENTS: usize = 144;
+/// Above this many events, the voting events grow as the square root of the window's
+/// events ([`voters`]).
+const DENSE: usize = 1_000;
 /// Pairs closer in time than this fraction of the window's time span do not vote: their
 /// velocity is too uncertain (a 1 px position error over 2.5 ms of a 10 ms slab is
 /// 0.4 px/ms).
 const MIN_GAP: f32 = 0.25;
+/// Pairs closer than this in both x and y, px, do not vote: two events of one pixel. Where
+/// each pixel fires several times while a particle passes, or several particles pass one
+/// pixel in a slab (dense seeding, small particle images), such pairs outnumber the pairs
+/// of one particle's trail and vote for zero velocity whatever the flow; the search
+/// compares the objective at the centre of its range with the vote's starts instead.
+const SAME_PIXEL: f32 = 1.0;
 /// Starts returned at most.
 pub(crate) const MAX_STARTS: usize = 3;
 /// Local maxima below this fraction of the highest are not returned as starts.
@@ -41,12 +51,20 @@ pub(crate) struct VoteScratch {
     pub starts: Vec<[f64; 2]>,
 }
 
-/// Outcome of a vote: the starts are in [`VoteScratch::starts`].
-#[derive(Debug, Clone, Copy)]
-pub(crate) struct Vote {
-    /// First-to-second local maximum ratio of the smoothed map, both above its minimum
-    /// (NaN without a second maximum).
-    pub ratio: f64,
+/// How many of a window's `total` events vote: all up to [`MAX_EVENTS`], then
+/// [`MAX_EVENTS`] up to [`DENSE`] events, then `MAX_EVENTS · √(total / DENSE)`.
+///
+/// One particle's trail supplies about `(kept / particles)²` of the pairs, so the trail's
+/// share of the votes falls with the number of particles in the window while the random
+/// pairs spread evenly; dense windows (tens of particles, thousands of events) need more
+/// voters for the trails to stand out. The vote's cost, ∝ `kept²`, then grows as the
+/// window's events, as the objective's evaluations do.
+fn voters(total: usize) -> usize {
+    if total <= DENSE {
+        return total.min(MAX_EVENTS);
+    }
+    let scaled = MAX_EVENTS as f64 * (total as f64 / DENSE as f64).sqrt();
+    (scaled as usize).min(total)
 }
 
 /// `out += k · add`, element by element.
@@ -191,9 +209,11 @@ impl VoteMap {
         let (limit, side) = (self.side as f32, self.side);
         for (((cell, &x), &y), &t) in cells.iter_mut().zip(x).zip(y).zip(t) {
             let k = self.inv / (t - et);
-            let cx = cell_index((x - ex) * k + self.offset[0], limit);
-            let cy = cell_index((y - ey) * k + self.offset[1], limit);
-            let inside = (cx < side) & (cy < side);
+            let (dx, dy) = (x - ex, y - ey);
+            let cx = cell_index(dx * k + self.offset[0], limit);
+            let cy = cell_index(dy * k + self.offset[1], limit);
+            let apart = (dx.abs() >= SAME_PIXEL) | (dy.abs() >= SAME_PIXEL);
+            let inside = (cx < side) & (cy < side) & apart;
             *cell = if inside {
                 cy.wrapping_mul(side).wrapping_add(cx)
             } else {
@@ -234,6 +254,7 @@ impl VoteMap {
         );
         let (half, below) = (_mm256_set1_ps(0.5), _mm256_set1_ps(-1.0));
         let (zero, magic) = (_mm256_setzero_ps(), _mm256_set1_ps(MAGIC));
+        let same_pixel = _mm256_set1_ps(SAME_PIXEL);
         let trash = _mm256_set1_epi32(self.trash as i32);
         // `cell_index` per lane, as a float: `max(a, b)` is `a > b ? a : b` and `min(a, b)`
         // is `a < b ? a : b`, the comparisons of the scalar code, and the integer it rounds
@@ -258,9 +279,16 @@ impl VoteMap {
                 )
             };
             let k = _mm256_div_ps(inv, _mm256_sub_ps(tv, etv));
-            let (cx, in_x) = index(_mm256_add_ps(_mm256_mul_ps(_mm256_sub_ps(xv, exv), k), ox));
-            let (cy, in_y) = index(_mm256_add_ps(_mm256_mul_ps(_mm256_sub_ps(yv, eyv), k), oy));
-            let inside = _mm256_castps_si256(_mm256_and_ps(in_x, in_y));
+            let (dx, dy) = (_mm256_sub_ps(xv, exv), _mm256_sub_ps(yv, eyv));
+            let (cx, in_x) = index(_mm256_add_ps(_mm256_mul_ps(dx, k), ox));
+            let (cy, in_y) = index(_mm256_add_ps(_mm256_mul_ps(dy, k), oy));
+            // |d| ≥ SAME_PIXEL, as `max(d, −d)` (the sign bit cleared would do too).
+            let far = |d: __m256| {
+                let abs = _mm256_max_ps(d, _mm256_sub_ps(zero, d));
+                _mm256_cmp_ps::<_CMP_GE_OQ>(abs, same_pixel)
+            };
+            let apart = _mm256_or_ps(far(dx), far(dy));
+            let inside = _mm256_castps_si256(_mm256_and_ps(_mm256_and_ps(in_x, in_y), apart));
             let cell = _mm256_cvttps_epi32(_mm256_add_ps(_mm256_mul_ps(cy, limit), cx));
             let chosen = _mm256_blendv_epi8(trash, cell, inside);
             // SAFETY: as the loads.
@@ -273,15 +301,9 @@ impl VoteMap {
 /// Histogram of the pair velocities of `events` in cells of `cell` px/ms over
 /// `centre ± half` (each axis), smoothed with a binomial 3 × 3 kernel; its local maxima of
 /// at least half the highest, best first and fitted to a fraction of a cell, become
-/// `s.starts` (at most [`MAX_STARTS`]). `None` when no pair votes inside (all events at
-/// one time, or every pair velocity outside).
-pub(crate) fn vote(
-    events: &Events,
-    centre: [f64; 2],
-    half: f64,
-    cell: f64,
-    s: &mut VoteScratch,
-) -> Option<Vote> {
+/// `s.starts` (at most [`MAX_STARTS`]; none when no pair votes inside: all events at one
+/// time, every pair inside one pixel, or every pair velocity outside).
+pub(crate) fn vote(events: &Events, centre: [f64; 2], half: f64, cell: f64, s: &mut VoteScratch) {
     s.starts.clear();
     let (lo, hi) = events
         .t
@@ -290,13 +312,13 @@ pub(crate) fn vote(
             (lo.min(t), hi.max(t))
         });
     if (hi - lo).is_nan() || hi - lo <= 1e-6 {
-        return None;
+        return;
     }
     // The events in time order, thinned evenly to at most MAX_EVENTS.
     let total = events.t.len();
     time_keys(&events.t, &mut s.keys);
     s.keys.sort_unstable();
-    let kept = total.min(MAX_EVENTS);
+    let kept = voters(total);
     for v in s.sorted.iter_mut() {
         v.clear();
     }
@@ -379,10 +401,13 @@ pub(crate) fn vote(
     // disqualifies a cell above the map's minimum.
     let map = &s.smooth;
     let at = |i: usize, j: usize| (j + 1) * width + i + 1;
-    let min = (0..side)
+    let Some(min) = (0..side)
         .map(|j| s.smooth[at(0, j)..at(0, j) + side].iter().copied().min())
         .min()
-        .flatten()?;
+        .flatten()
+    else {
+        return;
+    };
     let maxima = &mut s.maxima;
     maxima.clear();
     let w = width;
@@ -414,11 +439,9 @@ pub(crate) fn vote(
             maxima.truncate(MAX_STARTS);
         }
     }
-    if maxima.is_empty() {
-        return None;
-    }
-    let best = maxima[0].0 as f64;
-    let ratio = maxima.get(1).map_or(f64::NAN, |m| best / m.0.max(1) as f64);
+    let Some(best) = maxima.first().map(|m| m.0 as f64) else {
+        return;
+    };
     for &(v, index) in maxima.iter().take(MAX_STARTS) {
         if (v as f64) < START_FRACTION * best {
             break;
@@ -448,7 +471,6 @@ pub(crate) fn vote(
             centre[1] + (j as f64 + dy - n as f64) * cell,
         ]);
     }
-    Some(Vote { ratio })
 }
 
 #[cfg(test)]
