@@ -37,9 +37,9 @@ const MAX_CLIMB: usize = 6;
 /// The vote map spans the vote's range in this many cells per half-width (at least the
 /// coarse step each).
 const VOTE_CELLS: f64 = 16.0;
-/// The centre of the range is climbed too where Σ I² there is at least this fraction of the
-/// best maximum's height above the lowest value seen.
-const CENTRE_COMPETES: f64 = 0.5;
+/// A candidate start is climbed where Σ I² there is at least this fraction of the best
+/// maximum's height above the lowest value seen.
+const COMPETES: f64 = 0.5;
 
 /// Largest peak ratio reported: a peak [`MAX_RATIO`] times higher than anything else above
 /// the background stands alone.
@@ -317,50 +317,56 @@ impl Search<'_> {
         let mut seen = Seen::default();
         // Maxima found, (velocity, Σ I²): one per start at most.
         let mut found = [([0.0; 2], f64::NEG_INFINITY); MAX_STARTS + 2];
-        let mut count = 0;
         let near = |a: [f64; 2], b: [f64; 2]| (a[0] - b[0]).hypot(a[1] - b[1]) <= basin;
-        // Starts in order of trust: the given start (a sum of correlation) or else the
-        // predictor, then the vote's; a start in the basin of a maximum found is skipped.
-        let first = self.start.or(self.predicted.then_some(self.centre));
-        let votes = s.votes.starts.len().min(MAX_STARTS);
-        for k in 0..=votes {
-            let start = match k {
-                0 => match first {
-                    Some(start) => clamp(start),
-                    None => continue,
-                },
-                k => clamp(s.votes.starts[k - 1]),
-            };
+        // The most trusted start: the given one (a sum of correlation), else the predictor,
+        // else the vote's best, else the centre. Climbed first.
+        let votes = &s.votes.starts[..s.votes.starts.len().min(MAX_STARTS)];
+        let (first, others) = match self.start.or(self.predicted.then_some(self.centre)) {
+            Some(start) => (start, votes),
+            None => match votes.split_first() {
+                Some((&best, rest)) => (best, rest),
+                None => (self.centre, votes),
+            },
+        };
+        let mut candidates = [[0.0; 2]; MAX_STARTS + 1];
+        let mut n = 0;
+        for &v in others {
+            candidates[n] = clamp(v);
+            n += 1;
+        }
+        if !self.predicted {
+            candidates[n] = self.centre;
+            n += 1;
+        }
+        let top = self.ascend(clamp(first), extent, &canvas, s);
+        seen.add(top.1);
+        found[0] = top;
+        let mut count = 1;
+        // Two plain evaluations twice the basin's half-width from that maximum, on either
+        // side, sample the background the peak stands on.
+        let mut samples = [([0.0; 2], f64::NEG_INFINITY); MAX_STARTS + 3];
+        for k in 0..2 {
+            let d = if k == 0 { PROBE } else { -PROBE } * basin * std::f64::consts::FRAC_1_SQRT_2;
+            let at = clamp([top.0[0] + d, top.0[1] + d]);
+            samples[k] = (at, self.squares(at, &canvas, s));
+            seen.add(samples[k].1);
+        }
+        // The other candidates (the vote's other peaks, zero velocity): one plain evaluation
+        // each, and an ascent where the value competes with the best maximum so far (a
+        // narrow true maximum, or a slow flow whose pairs lie inside one pixel and do not
+        // vote); those in the basin of a maximum found are skipped.
+        let mut sampled = 2;
+        for &start in &candidates[..n] {
             if found[..count].iter().any(|m| near(m.0, start)) {
                 continue;
             }
-            let top = self.ascend(start, extent, &canvas, s);
-            seen.add(top.1);
-            found[count] = top;
-            count += 1;
-        }
-        // Two plain evaluations twice the basin's half-width from the best maximum, on either
-        // side, sample the background the peak stands on.
-        let best_so_far = best_of(&found[..count]);
-        let around = best_so_far.map_or(self.centre, |m| m.0);
-        let mut probes = [([0.0; 2], 0.0); 2];
-        for (k, probe) in probes.iter_mut().enumerate() {
-            let d = if k == 0 { PROBE } else { -PROBE } * basin * std::f64::consts::FRAC_1_SQRT_2;
-            let at = clamp([around[0] + d, around[1] + d]);
-            *probe = (at, self.squares(at, &canvas, s));
-            seen.add(probe.1);
-        }
-        // The centre of the range without a predictor (zero velocity): one plain evaluation,
-        // and an ascent where it could compete with the best maximum (slow flows, whose
-        // pairs lie inside one pixel and do not vote) or where no start was found.
-        let mut at_centre = None;
-        if !self.predicted && !found[..count].iter().any(|m| near(m.0, self.centre)) {
-            let value = self.squares(self.centre, &canvas, s);
+            let value = self.squares(start, &canvas, s);
             seen.add(value);
-            at_centre = Some(value);
-            let best = best_so_far.map_or(f64::NEG_INFINITY, |m| m.1);
-            if count == 0 || value - seen.lowest >= CENTRE_COMPETES * (best - seen.lowest) {
-                let top = self.ascend(self.centre, extent, &canvas, s);
+            samples[sampled] = (start, value);
+            sampled += 1;
+            let best = best_of(&found[..count]).map_or(f64::NEG_INFINITY, |m| m.1);
+            if value - seen.lowest >= COMPETES * (best - seen.lowest) {
+                let top = self.ascend(start, extent, &canvas, s);
                 seen.add(top.1);
                 found[count] = top;
                 count += 1;
@@ -369,18 +375,13 @@ impl Search<'_> {
         let Some((velocity, squares)) = best_of(&found[..count]) else {
             return Some(invalid(Status::NO_PEAK, f64::NAN));
         };
-        // The rival: the highest value seen outside the winner's basin (another maximum, the
-        // centre, a probe).
-        let outside = |v: [f64; 2]| !near(v, velocity);
-        let mut rival = f64::NEG_INFINITY;
-        for (v, value) in found[..count].iter().chain(&probes) {
-            if outside(*v) {
-                rival = rival.max(*value);
-            }
-        }
-        if let Some(value) = at_centre.filter(|_| outside(self.centre)) {
-            rival = rival.max(value);
-        }
+        // The rival: the highest value seen outside the winner's basin (another maximum, a
+        // candidate, a probe).
+        let rival = found[..count]
+            .iter()
+            .chain(&samples)
+            .filter(|(v, _)| !near(*v, velocity))
+            .fold(f64::NEG_INFINITY, |r, m| r.max(m.1));
         let ratio = peak_ratio(squares, rival, seen.lowest);
         if !(squares - seen.lowest > 0.0) {
             return Some(invalid(Status::NO_PEAK, ratio));
