@@ -41,6 +41,12 @@ const VOTE_CELLS: f64 = 16.0;
 /// maximum's height above the lowest value seen.
 const COMPETES: f64 = 0.5;
 
+/// Peak ratios below this flag the window [`Status::LOW_PEAK_RATIO`]: two velocities explain
+/// its events about equally well, and the higher one is no better evidence than the other.
+/// On the real wall flow (40 px, T = 10 ms, one pass), the six valid vectors with ratios
+/// below 1.2 differ from sum of correlation by 0.23–1.15 px/ms, against a median of 0.065
+/// px/ms for all.
+const COMPARABLE: f64 = 1.2;
 /// Largest peak ratio reported: a peak [`MAX_RATIO`] times higher than anything else above
 /// the background stands alone.
 const MAX_RATIO: f64 = 1000.0;
@@ -385,6 +391,9 @@ impl Search<'_> {
         let ratio = peak_ratio(squares, rival, seen.lowest);
         if !(squares - seen.lowest > 0.0) {
             return Some(invalid(Status::NO_PEAK, ratio));
+        }
+        if ratio < COMPARABLE {
+            return Some(invalid(Status::LOW_PEAK_RATIO, ratio));
         }
         // Within half a refinement step of the border counts as on it, as for the grid's
         // last lattice point.
