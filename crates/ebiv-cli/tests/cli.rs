@@ -709,8 +709,8 @@ fn wall_flow_netcdf_has_a_cf_time_axis_and_plain_attributes() {
     );
 }
 
-/// The truth of `ebiv simulate --truth` holds the flow's velocity only: no status or quality
-/// variables, which a sampled flow does not have, in NetCDF and in CSV.
+/// The truth of `ebiv simulate --truth` holds the flow's velocity only: no status, quality or
+/// slab variables, which a sampled flow does not have, in NetCDF and in CSV.
 #[test]
 fn simulated_truth_has_no_quality_variables() {
     let dir = tempfile::tempdir().unwrap();
@@ -730,7 +730,7 @@ fn simulated_truth_has_no_quality_variables() {
         assert!(out.status.success(), "{}", stderr(&out));
     }
     let (ds, _) = netcdf3::FileReader::open(path("truth.nc")).unwrap().close();
-    for var in ["status", "peak", "peak_ratio", "event_count"] {
+    for var in ["status", "peak", "peak_ratio", "event_count", "slab_us"] {
         assert!(!ds.has_var(var), "{var}");
     }
     assert!(ds.has_var("u") && ds.has_var("v"));
@@ -806,5 +806,54 @@ fn dense_levels_recording_does_not_lock_motion_compensation_at_zero() {
         );
         assert!(rms < 0.05, "{method} {passes}: RMS {rms}");
         assert_eq!(gross, 0, "{method} {passes}: {errors:?}");
+    }
+}
+
+/// Every vector of `ebiv process` records the time slab it was measured over: `--slab 7ms`
+/// gives `slab_us` 7000 in the CSV (the column after `event_count`) for both event
+/// estimators, whatever the vector's status.
+#[test]
+fn process_writes_the_slab_of_every_vector() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = |name: &str| dir.path().join(name).to_str().unwrap().to_string();
+    std::fs::write(
+        path("scene.toml"),
+        "seed = 7\nduration = \"30ms\"\n\
+         [sensor]\nwidth = 96\nheight = 64\npreset = \"gen4\"\n\
+         [flow]\ntype = \"uniform\"\nu = 1.0\nv = 0.5\n\
+         [particles]\ndensity = 0.006\ndiameter = 2.5\nbrightness = 20.0\n",
+    )
+    .unwrap();
+    let out = ebiv(&["simulate", &path("scene.toml"), "-o", &path("scene.raw")]);
+    assert!(out.status.success(), "{}", stderr(&out));
+    for method in ["corrsum", "motion"] {
+        let csv = path(&format!("{method}.csv"));
+        let out = ebiv(&[
+            "process",
+            &path("scene.raw"),
+            "--method",
+            method,
+            "--slab",
+            "7ms",
+            "--window",
+            "32",
+            "--step",
+            "32",
+            "-o",
+            &csv,
+        ]);
+        assert!(out.status.success(), "{method}: {}", stderr(&out));
+        let text = std::fs::read_to_string(&csv).unwrap();
+        let mut lines = text.lines();
+        let header: Vec<&str> = lines.next().unwrap().split(',').collect();
+        let at = |name: &str| header.iter().position(|&h| h == name).unwrap();
+        assert_eq!(at("slab_us"), at("event_count") + 1, "{header:?}");
+        let rows: Vec<Vec<&str>> = lines.map(|l| l.split(',').collect()).collect();
+        assert!(rows.len() >= 6, "{method}: {} vectors", rows.len());
+        for row in &rows {
+            assert_eq!(row[at("slab_us")], "7000", "{method}: {row:?}");
+        }
+        // Valid vectors among them, so the value is not only that of empty windows.
+        assert!(rows.iter().any(|r| r[at("status")] == "0"), "{method}");
     }
 }

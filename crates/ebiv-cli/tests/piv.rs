@@ -32,6 +32,20 @@ fn read_csv(path: &Path, columns: &str) -> Vec<(f64, f64, f64, f64, u32)> {
         .collect()
 }
 
+/// The values of the column `name` of a field CSV.
+fn column(path: &Path, name: &str) -> Vec<f64> {
+    let text = std::fs::read_to_string(path).unwrap();
+    let mut lines = text.lines();
+    let header = lines.next().unwrap();
+    let k = header
+        .split(',')
+        .position(|h| h == name)
+        .unwrap_or_else(|| panic!("no column {name} in {header}"));
+    lines
+        .map(|l| l.split(',').nth(k).unwrap().parse().unwrap())
+        .collect()
+}
+
 fn median(mut v: Vec<f64>) -> f64 {
     v.sort_by(f64::total_cmp);
     v[v.len() / 2]
@@ -96,9 +110,10 @@ fn image_pair_gives_displacements_in_px() {
     let text = String::from_utf8_lossy(&bytes);
     assert!(text.contains("displacement along x"));
     // The time axis is the index of the pair, not a slab centre in camera time; the
-    // settings are plain text.
+    // settings are plain text. Without `--dt` a pair has no time span: `slab_us` says so.
     assert!(text.contains("index of the field (one per image pair)"));
-    for absent in ["slab", "microseconds since", "ValidationParams"] {
+    assert!(text.contains("0 when it is not given"));
+    for absent in ["time slab", "microseconds since", "ValidationParams"] {
         assert!(
             !text.contains(absent),
             "`{absent}` in the NetCDF of an image pair"
@@ -193,6 +208,8 @@ fn wall_flow_through_event_frames_matches_the_event_estimators() {
         (1.3..1.7).contains(&u) && (0.1..0.45).contains(&v),
         "({u}, {v})"
     );
+    // Every vector was measured over the span of its four frames: 3 × 2 ms + 1 ms.
+    assert!(column(&csv, "slab_us").iter().all(|&s| s == 7000.0));
 }
 
 /// A pulsed light sheet (1 kHz, 5 % duty) on a uniform 1.5 px/ms flow: `--method pulsed`
@@ -275,6 +292,12 @@ phase_us = 300.0
     assert!(
         (u - 1.5).abs() < 0.03 && (v + 0.5).abs() < 0.03,
         "({u}, {v})"
+    );
+    // Four frames of one 1 ms period each (starts and exposure rounded to whole µs).
+    let slabs = column(&csv, "slab_us");
+    assert!(
+        slabs.iter().all(|&s| (s - 4000.0).abs() <= 2.0),
+        "{slabs:?}"
     );
 
     // With --time, the pulses are found from the requested start on.

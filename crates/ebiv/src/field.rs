@@ -156,6 +156,9 @@ pub struct VectorField {
     pub peak_ratio: Vec<f32>,
     /// Events used by the estimator in the window.
     pub event_count: Vec<u32>,
+    /// Length of the time slab the vector was measured over, µs; 0 where there is none (see
+    /// [`FieldSeries::slab_us`]).
+    pub slab_us: Vec<u32>,
 }
 
 impl VectorField {
@@ -171,6 +174,20 @@ impl VectorField {
             peak: vec![f32::NAN; n],
             peak_ratio: vec![f32::NAN; n],
             event_count: vec![0; n],
+            slab_us: vec![0; n],
+        }
+    }
+
+    /// Record `slab_us` as the time span every evaluated vector was measured over, for
+    /// methods whose slab is one per field (PIV: the span of the field's frames); masked
+    /// windows, which are not evaluated, keep 0.
+    pub fn set_slab_us(&mut self, slab_us: u32) {
+        for (s, status) in self.slab_us.iter_mut().zip(&self.status) {
+            *s = if status.contains(Status::MASKED) {
+                0
+            } else {
+                slab_us
+            };
         }
     }
 
@@ -325,6 +342,27 @@ impl TimeBasis {
         self != TimeBasis::PairIndex
     }
 
+    /// What the per-vector `slab_us` of a series with these times holds, as a phrase for file
+    /// metadata (see [`FieldSeries::slab_us`]).
+    pub fn describe_slab(self) -> &'static str {
+        match self {
+            TimeBasis::SlabCentre => {
+                "length T of the time slab the vector was measured over, microseconds (sum of \
+                 correlation: each of its two sub-volumes, which together span T + tau; motion \
+                 compensation: the slab of warped events); 0 for masked windows"
+            }
+            TimeBasis::FrameCentre => {
+                "time span of the frames the vector was correlated from, from the start of the \
+                 first to the end of the last, microseconds; 0 for masked windows"
+            }
+            TimeBasis::Instant => "none: a sampled flow has no time slab (0)",
+            TimeBasis::PairIndex => {
+                "time between the two frames of a pair (--dt), microseconds; 0 when it is not \
+                 given and for masked windows"
+            }
+        }
+    }
+
     /// What a field's time is, as a phrase for file metadata.
     pub fn describe(self) -> &'static str {
         match self {
@@ -363,6 +401,19 @@ pub struct FieldSeries {
     pub peak_ratio: Vec<f32>,
     /// Events used per window, indexed `[t][y][x]`.
     pub event_count: Vec<u32>,
+    /// Length T of the time slab each vector was measured over, µs, indexed `[t][y][x]`: the
+    /// estimator's slab (sum of correlation: the length of each of its two sub-volumes, which
+    /// together span T + τ; motion compensation: the slab whose events are warped), the time
+    /// span of the frames (PIV of frames rebuilt from events, pulsed EBIV), or the time
+    /// between the frames of an image pair when it is given. 0 where there is no slab: masked
+    /// windows, image pairs without a time between the frames, and a ground truth. A
+    /// replaced vector keeps the slab its window was evaluated over.
+    ///
+    /// `u32` microseconds rather than the `i64` of time stamps: a duration is never negative,
+    /// and 32 bits (up to 71 minutes; PIV refuses frames or a `dt` spanning more) keep every
+    /// output format's integer type: NetCDF `int` (up to 35 minutes), NumPy `<u4`, VTK
+    /// `unsigned_int`.
+    pub slab_us: Vec<u32>,
     /// Physical scaling applied by the writers, if any.
     pub calibration: Option<Calibration>,
     /// What `u` and `v` hold: velocities (event estimators) or displacements (PIV of an
@@ -375,7 +426,8 @@ pub struct FieldSeries {
     /// Written next to the time axis so that the two can be related; `None` when unknown.
     pub time_origin_us: Option<i64>,
     /// The series is a ground truth (a simulation's flow sampled on a grid): `status`, `peak`,
-    /// `peak_ratio` and `event_count` carry no information and the writers leave them out.
+    /// `peak_ratio`, `event_count` and `slab_us` carry no information and the writers leave
+    /// them out.
     pub ground_truth: bool,
     /// Descriptive attributes written into every output: the source and the processing
     /// settings. The writers add the software, units, axis convention, time basis and
@@ -397,6 +449,7 @@ impl FieldSeries {
             peak: vec![f32::NAN; n],
             peak_ratio: vec![f32::NAN; n],
             event_count: vec![0; n],
+            slab_us: vec![0; n],
             calibration: None,
             quantity: Quantity::Velocity,
             time_basis: TimeBasis::SlabCentre,
@@ -443,6 +496,7 @@ impl FieldSeries {
         self.peak.extend_from_slice(&field.peak);
         self.peak_ratio.extend_from_slice(&field.peak_ratio);
         self.event_count.extend_from_slice(&field.event_count);
+        self.slab_us.extend_from_slice(&field.slab_us);
         Ok(())
     }
 
@@ -458,7 +512,8 @@ impl FieldSeries {
             status: self.status[r.clone()].to_vec(),
             peak: self.peak[r.clone()].to_vec(),
             peak_ratio: self.peak_ratio[r.clone()].to_vec(),
-            event_count: self.event_count[r].to_vec(),
+            event_count: self.event_count[r.clone()].to_vec(),
+            slab_us: self.slab_us[r].to_vec(),
         }
     }
 
@@ -522,6 +577,21 @@ mod tests {
         }
         .validate()
         .is_err());
+    }
+
+    #[test]
+    fn one_slab_per_field_leaves_masked_windows_without_one() {
+        let mut f = VectorField::new(vec![0.0, 1.0, 2.0], vec![0.0]);
+        f.status[1] = Status::MASKED;
+        f.status[2] = Status::MEDIAN_TEST | Status::REPLACED;
+        f.set_slab_us(7000);
+        assert_eq!(f.slab_us, vec![7000, 0, 7000]);
+        let mut s = FieldSeries::on_grid(f.x.clone(), f.y.clone());
+        s.push(3, &f).unwrap();
+        s.push(4, &VectorField::new(f.x.clone(), f.y.clone()))
+            .unwrap();
+        assert_eq!(s.slab_us, vec![7000, 0, 7000, 0, 0, 0]);
+        assert_eq!(s.field(0).slab_us, f.slab_us);
     }
 
     #[test]

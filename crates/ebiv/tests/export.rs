@@ -1,6 +1,7 @@
 //! Field writers: every format written and read back (NetCDF with the netcdf3 reader, CSV,
 //! NPZ through zip and the .npy header, Tecplot and VTK by parsing), checking values,
-//! shapes, NaN, status flags and the calibration's sign convention (y up flips y and v).
+//! shapes, NaN, status flags, the per-vector time slab `slab_us` and the calibration's sign
+//! convention (y up flips y and v).
 
 use ebiv::export::{
     vtk_series_paths, write_field, write_field_csv, write_field_netcdf, write_field_npz,
@@ -24,6 +25,8 @@ fn series(calibrated: bool) -> FieldSeries {
         f.peak[i] = 10.0 + i as f32;
         f.peak_ratio[i] = 1.25 + i as f32 / 8.0;
         f.event_count[i] = 1000 + 7 * i as u32;
+        // Distinct per vector, beyond 16 bits, as adaptive slabs would give.
+        f.slab_us[i] = 70_000 + 1_000 * i as u32;
     }
     // t 0, row 1, col 2: no events. t 1, row 0, col 1: median test, replaced (has a value).
     let a = f.index(0, 1, 2);
@@ -39,6 +42,7 @@ fn series(calibrated: bool) -> FieldSeries {
     f.u[c] = f32::NAN;
     f.v[c] = f32::NAN;
     f.status[c] = Status::LOW_PEAK_RATIO | Status::MASKED;
+    f.slab_us[c] = 0;
     f.attributes
         .push(("source file".into(), "recording \"A\".raw".into()));
     f.attributes.push(("tau_us".into(), "250".into()));
@@ -133,6 +137,7 @@ fn netcdf_round_trip() {
         let peak = r.read_var_f32("peak").unwrap();
         let ratio = r.read_var_f32("peak_ratio").unwrap();
         let count = r.read_var_i32("event_count").unwrap();
+        let slab = r.read_var_i32("slab_us").unwrap();
         for (t, row, col, i) in each_vector(&f) {
             let e = expected(&f, t, row, col);
             assert_same("x", x[col], e[0]);
@@ -143,7 +148,13 @@ fn netcdf_round_trip() {
             assert_same("peak", peak[i] as f64, f.peak[i] as f64);
             assert_same("peak_ratio", ratio[i] as f64, f.peak_ratio[i] as f64);
             assert_eq!(count[i], f.event_count[i] as i32);
+            assert_eq!(slab[i], f.slab_us[i] as i32);
         }
+        assert_eq!(
+            ds.get_var_attr_as_string("slab_us", "units").as_deref(),
+            Some("us")
+        );
+        assert!(ds.get_var_attr_as_string("slab_us", "long_name").is_some());
         if calibrated {
             assert_eq!(r.read_var_f64("x_px").unwrap(), f.x);
             assert_eq!(r.read_var_f64("y_px").unwrap(), f.y);
@@ -166,7 +177,7 @@ fn csv_round_trip() {
         let mut lines = text.lines();
         let header: Vec<&str> = lines.next().unwrap().split(',').collect();
         assert_eq!(
-            &header[..9],
+            &header[..10],
             [
                 "t_us",
                 "x_px",
@@ -176,13 +187,14 @@ fn csv_round_trip() {
                 "status",
                 "peak",
                 "peak_ratio",
-                "event_count"
+                "event_count",
+                "slab_us"
             ]
         );
         if calibrated {
-            assert_eq!(&header[9..], ["x_mm", "y_mm", "u_m_s", "v_m_s"]);
+            assert_eq!(&header[10..], ["x_mm", "y_mm", "u_m_s", "v_m_s"]);
         } else {
-            assert_eq!(header.len(), 9);
+            assert_eq!(header.len(), 10);
         }
         let rows: Vec<Vec<f64>> = lines
             .map(|l| l.split(',').map(|s| s.parse::<f64>().unwrap()).collect())
@@ -199,14 +211,15 @@ fn csv_round_trip() {
             assert_same("peak", r[6], f.peak[i] as f64);
             assert_same("peak_ratio", r[7], f.peak_ratio[i] as f64);
             assert_eq!(r[8], f.event_count[i] as f64);
+            assert_eq!(r[9], f.slab_us[i] as f64);
             if calibrated {
                 let e = expected(&f, t, row, col);
                 for k in 0..4 {
-                    assert_same(header[9 + k], r[9 + k], e[k]);
+                    assert_same(header[10 + k], r[10 + k], e[k]);
                 }
             }
         }
-        assert!(text.contains(",NaN,NaN,1,NaN,NaN,0"));
+        assert!(text.contains(",NaN,NaN,1,NaN,NaN,0,75000"));
     }
 }
 
@@ -317,7 +330,15 @@ fn npz_round_trip() {
         assert_eq!(a["x"].f64s(), f.x);
         assert_eq!(a["y"].f64s(), f.y);
         assert_eq!(a["t_us"].i64s(), f.t_us);
-        for name in ["u", "v", "status", "peak", "peak_ratio", "event_count"] {
+        for name in [
+            "u",
+            "v",
+            "status",
+            "peak",
+            "peak_ratio",
+            "event_count",
+            "slab_us",
+        ] {
             assert_eq!(a[name].shape, grid, "{name}");
         }
         let (u, v) = (a["u"].f32s(), a["v"].f32s());
@@ -325,6 +346,7 @@ fn npz_round_trip() {
         assert_eq!(a["status"].descr, "|u1");
         let status = &a["status"].data;
         let count = a["event_count"].u32s();
+        let slab = a["slab_us"].u32s();
         for (_, _, _, i) in each_vector(&f) {
             assert_same("u", u[i] as f64, f.u[i] as f64);
             assert_same("v", v[i] as f64, f.v[i] as f64);
@@ -332,8 +354,10 @@ fn npz_round_trip() {
             assert_same("peak_ratio", ratio[i] as f64, f.peak_ratio[i] as f64);
             assert_eq!(status[i], f.status[i].0);
             assert_eq!(count[i], f.event_count[i]);
+            assert_eq!(slab[i], f.slab_us[i]);
         }
         let attributes = a["attributes"].strings();
+        assert!(attributes.iter().any(|s| s.starts_with("slab_us=")));
         assert!(attributes.contains(&"source_file=recording \"A\".raw".to_string()));
         assert!(attributes.iter().any(|s| s.starts_with("axis_convention=")));
         if calibrated {
@@ -369,7 +393,7 @@ fn tecplot_round_trip() {
         let vunit = if calibrated { "m/s" } else { "px/ms" };
         let variables = format!(
             "VARIABLES = \"x [{unit}]\" \"y [{unit}]\" \"u [{vunit}]\" \"v [{vunit}]\" \
-             \"status\" \"peak\" \"peak_ratio\" \"event_count\""
+             \"status\" \"peak\" \"peak_ratio\" \"event_count\" \"slab_us\""
         );
         assert!(text.lines().any(|l| l == variables), "{text}");
         assert!(text.contains("DATASETAUXDATA source_file=\"recording \\\"A\\\".raw\""));
@@ -398,7 +422,7 @@ fn tecplot_round_trip() {
                 let i = f.index(t, row, col);
                 let e = expected(&f, t, row, col);
                 let missing = |want: f64| if want.is_nan() { TECPLOT_MISSING } else { want };
-                assert_eq!(p.len(), 8);
+                assert_eq!(p.len(), 9);
                 for (j, name) in ["x", "y", "u", "v"].iter().enumerate() {
                     assert_same(name, p[j], missing(e[j]));
                 }
@@ -406,6 +430,7 @@ fn tecplot_round_trip() {
                 assert_same("peak", p[5], missing(f.peak[i] as f64));
                 assert_same("peak_ratio", p[6], missing(f.peak_ratio[i] as f64));
                 assert_eq!(p[7], f.event_count[i] as f64);
+                assert_eq!(p[8], f.slab_us[i] as f64);
             }
         }
     }
@@ -425,6 +450,7 @@ struct Vtk {
     peak: Vec<f32>,
     peak_ratio: Vec<f32>,
     event_count: Vec<u32>,
+    slab_us: Vec<u32>,
 }
 
 fn parse_vtk(bytes: &[u8]) -> Vtk {
@@ -456,6 +482,7 @@ fn parse_vtk(bytes: &[u8]) -> Vtk {
         peak: vec![],
         peak_ratio: vec![],
         event_count: vec![],
+        slab_us: vec![],
     };
     let take = |pos: &mut usize, len: usize| -> Vec<u8> {
         let b = bytes[*pos..*pos + len].to_vec();
@@ -502,7 +529,7 @@ fn parse_vtk(bytes: &[u8]) -> Vtk {
                 pos = end + 1;
                 out.status = take(&mut pos, n);
             }
-            "FIELD" => assert_eq!(header, "FIELD FieldData 3"),
+            "FIELD" => assert_eq!(header, "FIELD FieldData 4"),
             "peak" | "peak_ratio" => {
                 assert_eq!(&words[1..], ["1", &n.to_string(), "float"]);
                 let v: Vec<f32> = be32(take(&mut pos, 4 * n))
@@ -515,12 +542,17 @@ fn parse_vtk(bytes: &[u8]) -> Vtk {
                     out.peak_ratio = v;
                 }
             }
-            "event_count" => {
+            "event_count" | "slab_us" => {
                 assert_eq!(&words[1..], ["1", &n.to_string(), "unsigned_int"]);
-                out.event_count = be32(take(&mut pos, 4 * n))
+                let v: Vec<u32> = be32(take(&mut pos, 4 * n))
                     .into_iter()
                     .map(u32::from_be_bytes)
                     .collect();
+                if words[0] == "event_count" {
+                    out.event_count = v;
+                } else {
+                    out.slab_us = v;
+                }
             }
             "" => {}
             other => panic!("unexpected VTK keyword {other}"),
@@ -532,6 +564,7 @@ fn parse_vtk(bytes: &[u8]) -> Vtk {
         out.peak.len(),
         out.peak_ratio.len(),
         out.event_count.len(),
+        out.slab_us.len(),
     ] {
         assert_eq!(len, n, "an array is missing");
     }
@@ -578,6 +611,7 @@ fn vtk_round_trip() {
                     assert_same("peak", vtk.peak[k] as f64, f.peak[i] as f64);
                     assert_same("ratio", vtk.peak_ratio[k] as f64, f.peak_ratio[i] as f64);
                     assert_eq!(vtk.event_count[k], f.event_count[i]);
+                    assert_eq!(vtk.slab_us[k], f.slab_us[i]);
                 }
             }
         }
@@ -594,6 +628,7 @@ fn vtk_single_field_goes_to_the_given_path() {
     }
     f.status.truncate(n);
     f.event_count.truncate(n);
+    f.slab_us.truncate(n);
     let dir = tempfile::tempdir().unwrap();
     let path = dir.path().join("one.vtk");
     write_field_vtk(&f, &path).unwrap();

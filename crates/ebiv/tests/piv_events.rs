@@ -116,6 +116,11 @@ fn piv_of_event_frames_agrees_with_corrsum_and_motion() {
     );
     println!("turntable ω = 0.01 rad/ms, 64→32 px: piv of 4 count frames (1 ms every 2 ms): {ep}");
     println!("corrsum: {ec}\nmotion: {em}");
+    // Each vector records the time it was measured over: the span of the four frames,
+    // 3 × 2 ms + 1 ms, or the estimators' slab T (10 ms by default; no mask here).
+    assert!(piv.slab_us.iter().all(|&s| s == 7000));
+    assert!(corrsum.slab_us.iter().all(|&s| s == 10_000));
+    assert!(motion.slab_us.iter().all(|&s| s == 10_000));
     assert!(ep.rms <= 0.1, "piv {ep}");
     assert!(ep.valid_share() >= 0.95, "piv {ep}");
     for (name, other, e) in [("corrsum", &corrsum, &ec), ("motion", &motion, &em)] {
@@ -174,4 +179,11 @@ phase_us = 130.0
     assert!(e.rms <= 0.05, "{e}");
     assert!(e.bias[0].abs() <= 0.02 && e.bias[1].abs() <= 0.02, "{e}");
     assert!(e.valid_share() >= 0.95, "{e}");
+    // The five frames of a field, one pulse period each, span five periods (frame starts
+    // and the exposure rounded to whole µs).
+    let span = 5.0 * timing.period_us;
+    assert!(series
+        .slab_us
+        .iter()
+        .all(|&s| (s as f64 - span).abs() <= 2.0));
 }

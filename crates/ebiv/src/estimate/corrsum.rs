@@ -243,6 +243,12 @@ impl SumOfCorrelation {
         })
     }
 
+    /// The slab T every estimate records: the length of each sub-volume, µs (validated to
+    /// 1 µs … [`MAX_SLAB_US`], so it fits).
+    fn slab_us(&self) -> u32 {
+        self.params.slab_us as u32
+    }
+
     /// Half the time extent, `⌈(T + τ)/2⌉` µs.
     fn half_extent_us(&self) -> i64 {
         (self.params.slab_us + self.params.tau_us + 1) / 2
@@ -328,15 +334,27 @@ impl SumOfCorrelation {
         let (n1, n2) = (a.events(), b.events());
         let events = u32::try_from((n1 + n2) / 2).unwrap_or(u32::MAX);
         if n1 == 0 || n2 == 0 {
-            return Err(WindowEstimate::invalid(Status::NO_EVENTS, events));
+            return Err(WindowEstimate::invalid(
+                Status::NO_EVENTS,
+                events,
+                self.slab_us(),
+            ));
         }
         if events < p.min_events {
-            return Err(WindowEstimate::invalid(Status::FEW_EVENTS, events));
+            return Err(WindowEstimate::invalid(
+                Status::FEW_EVENTS,
+                events,
+                self.slab_us(),
+            ));
         }
         let shape = scratch.shape;
         slice_statistics(a, b, shape, &mut scratch.stats);
         if scratch.stats.is_empty() {
-            return Err(WindowEstimate::invalid(Status::NO_PEAK, events));
+            return Err(WindowEstimate::invalid(
+                Status::NO_PEAK,
+                events,
+                self.slab_us(),
+            ));
         }
         let use_fft = match p.kernel {
             CorrKernel::Fft => true,
@@ -487,9 +505,9 @@ impl Estimator for SumOfCorrelation {
             }),
         };
         let Some(peak) = peak else {
-            return WindowEstimate::invalid(Status::NO_PEAK, events);
+            return WindowEstimate::invalid(Status::NO_PEAK, events, self.slab_us());
         };
-        let mut result = WindowEstimate::invalid(Status::NO_PEAK, events);
+        let mut result = WindowEstimate::invalid(Status::NO_PEAK, events, self.slab_us());
         result.peak = peak.value as f32;
         result.peak_ratio = peak.ratio() as f32;
         if peak.value.is_nan() || peak.value <= 0.0 {

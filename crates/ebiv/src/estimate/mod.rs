@@ -62,11 +62,18 @@ pub struct WindowEstimate {
     pub peak_ratio: f32,
     /// Events the estimate is based on.
     pub event_count: u32,
+    /// Length T of the time slab the window was evaluated over, µs (sum of correlation: the
+    /// length of each sub-volume; motion compensation: the slab of warped events); 0 for a
+    /// window that was not evaluated (masked). Set for invalid estimates too: a window
+    /// without events was still looked at over its slab. `u32` like
+    /// [`VectorField::slab_us`](crate::field::VectorField::slab_us), where it is written.
+    pub slab_us: u32,
 }
 
 impl WindowEstimate {
-    /// An invalid estimate: NaN velocity with `status`.
-    pub fn invalid(status: Status, event_count: u32) -> Self {
+    /// An invalid estimate: NaN velocity with `status`, from `event_count` events of a slab
+    /// of `slab_us` µs (0: the window was not evaluated).
+    pub fn invalid(status: Status, event_count: u32, slab_us: u32) -> Self {
         WindowEstimate {
             u: f64::NAN,
             v: f64::NAN,
@@ -74,6 +81,7 @@ impl WindowEstimate {
             peak: f32::NAN,
             peak_ratio: f32::NAN,
             event_count,
+            slab_us,
         }
     }
 }

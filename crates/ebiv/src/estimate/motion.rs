@@ -389,16 +389,18 @@ impl Estimator for ContrastMaximization {
         scratch: &mut MotionScratch,
     ) -> WindowEstimate {
         let (before, after) = self.time_extent_us();
+        // Validated to 1 µs … 60 s, so it fits.
+        let slab_us = self.params.slab_us as u32;
         scratch.gathered.clear();
         let times = (t0_us - before, t0_us + after, t0_us);
         gather_predicted(slab, window, times, predictor, &mut scratch.gathered);
         let n = scratch.gathered.len();
         let count = n.min(u32::MAX as usize) as u32;
         if n == 0 {
-            return WindowEstimate::invalid(Status::NO_EVENTS, 0);
+            return WindowEstimate::invalid(Status::NO_EVENTS, 0, slab_us);
         }
         if count < self.params.min_events {
-            return WindowEstimate::invalid(Status::FEW_EVENTS, count);
+            return WindowEstimate::invalid(Status::FEW_EVENTS, count, slab_us);
         }
         let ev = &mut scratch.events;
         let g = &scratch.gathered;
@@ -443,7 +445,7 @@ impl Estimator for ContrastMaximization {
             coarse: &self.coarse,
         };
         let Some(out) = search.run(&mut scratch.search) else {
-            return WindowEstimate::invalid(Status::OUT_OF_RANGE, count);
+            return WindowEstimate::invalid(Status::OUT_OF_RANGE, count, slab_us);
         };
         let valid = out.status.is_valid();
         WindowEstimate {
@@ -453,6 +455,7 @@ impl Estimator for ContrastMaximization {
             peak: out.peak as f32,
             peak_ratio: out.peak_ratio as f32,
             event_count: count,
+            slab_us,
         }
     }
 

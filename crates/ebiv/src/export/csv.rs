@@ -11,10 +11,12 @@
 //! * `u_px_ms,v_px_ms`: velocity, px/ms (v positive down); `u_px,v_px` for the displacements
 //!   of image pairs without a time between the frames;
 //! * `status`: 0 = valid, else the bits of [`Status`](crate::field::Status);
-//! * `peak,peak_ratio,event_count`: the quality of each vector (left out for a ground truth,
-//!   [`FieldSeries::ground_truth`]).
+//! * `peak,peak_ratio,event_count`: the quality of each vector;
+//! * `slab_us`: the time slab the vector was measured over, µs, 0 where there is none
+//!   ([`FieldSeries::slab_us`]).
 //!
-//! These columns always come first and always in image units. With a calibration the
+//! These columns always come first and always in image units; a ground truth
+//! ([`FieldSeries::ground_truth`]) has none from `status` on. With a calibration the
 //! physical columns `x_mm,y_mm,u_m_s,v_m_s` follow (`u_mm,v_mm` for displacements; y and v
 //! positive up when the calibration says `y_up`). One line per vector, time-major, then rows,
 //! then columns. Invalid values are written as `NaN`; floats in their shortest exact form.
@@ -28,7 +30,8 @@ use std::io::Write;
 use std::path::Path;
 
 /// The header of a CSV of velocities measured in camera time, without calibration.
-pub const CSV_HEADER: &str = "t_us,x_px,y_px,u_px_ms,v_px_ms,status,peak,peak_ratio,event_count";
+pub const CSV_HEADER: &str =
+    "t_us,x_px,y_px,u_px_ms,v_px_ms,status,peak,peak_ratio,event_count,slab_us";
 
 /// A unit as a column-name suffix: `px/ms` → `px_ms`, `m/s` → `m_s`.
 fn suffix(unit: &str) -> String {
@@ -46,7 +49,7 @@ pub fn csv_header(field: &FieldSeries) -> String {
     let image = suffix(image_unit);
     let mut header = format!("{time},x_px,y_px,u_{image},v_{image}");
     if !field.ground_truth {
-        header.push_str(",status,peak,peak_ratio,event_count");
+        header.push_str(",status,peak,peak_ratio,event_count,slab_us");
     }
     if field.calibration.is_some() {
         let physical = suffix(physical_unit);
@@ -70,11 +73,12 @@ pub fn write_field_csv(field: &FieldSeries, path: &Path) -> Result<()> {
                     if !field.ground_truth {
                         write!(
                             w,
-                            ",{},{},{},{}",
+                            ",{},{},{},{},{}",
                             field.status[i].0,
                             field.peak[i],
                             field.peak_ratio[i],
-                            field.event_count[i]
+                            field.event_count[i],
+                            field.slab_us[i]
                         )?;
                     }
                     if let Some(p) = &physical {
@@ -102,8 +106,8 @@ mod tests {
         let text = std::fs::read_to_string(&path).unwrap();
         assert_eq!(
             text,
-            "t_us,x_px,y_px,u_px_ms,v_px_ms,status,peak,peak_ratio,event_count\n\
-             5,1,2,NaN,NaN,1,NaN,NaN,0\n"
+            "t_us,x_px,y_px,u_px_ms,v_px_ms,status,peak,peak_ratio,event_count,slab_us\n\
+             5,1,2,NaN,NaN,1,NaN,NaN,0,0\n"
         );
         assert_eq!(text.lines().next(), Some(CSV_HEADER));
         assert!(!dir.path().join("f.csv.partial").exists());
@@ -116,7 +120,7 @@ mod tests {
         f.time_basis = TimeBasis::PairIndex;
         assert_eq!(
             csv_header(&f),
-            "field,x_px,y_px,u_px,v_px,status,peak,peak_ratio,event_count"
+            "field,x_px,y_px,u_px,v_px,status,peak,peak_ratio,event_count,slab_us"
         );
         f.calibration = Some(Calibration {
             mm_per_px: 0.5,
@@ -154,6 +158,7 @@ mod tests {
         f.peak[1] = 0.25;
         f.peak_ratio[1] = 3.5;
         f.event_count[1] = 42;
+        f.slab_us[1] = 7000;
         f.calibration = Some(Calibration {
             mm_per_px: 0.5,
             origin_px: [10.0, 90.0],
@@ -166,10 +171,10 @@ mod tests {
         let lines: Vec<&str> = text.lines().collect();
         assert_eq!(
             lines[0],
-            "t_us,x_px,y_px,u_px_ms,v_px_ms,status,peak,peak_ratio,event_count,\
+            "t_us,x_px,y_px,u_px_ms,v_px_ms,status,peak,peak_ratio,event_count,slab_us,\
              x_mm,y_mm,u_m_s,v_m_s"
         );
-        assert_eq!(lines[1], "-7,10,100,NaN,NaN,1,NaN,NaN,0,0,-5,NaN,NaN");
-        assert_eq!(lines[2], "-7,30,100,2,4,0,0.25,3.5,42,10,-5,1,-2");
+        assert_eq!(lines[1], "-7,10,100,NaN,NaN,1,NaN,NaN,0,0,0,-5,NaN,NaN");
+        assert_eq!(lines[2], "-7,30,100,2,4,0,0.25,3.5,42,7000,10,-5,1,-2");
     }
 }

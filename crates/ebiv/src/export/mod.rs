@@ -141,6 +141,7 @@ pub(crate) fn check(field: &FieldSeries) -> Result<()> {
         ("peak", field.peak.len()),
         ("peak_ratio", field.peak_ratio.len()),
         ("event_count", field.event_count.len()),
+        ("slab_us", field.slab_us.len()),
     ];
     for (name, len) in lengths {
         if len != n {
@@ -320,6 +321,10 @@ pub(crate) fn metadata(field: &FieldSeries) -> Vec<(String, String)> {
         own.push((
             "status_flags".to_string(),
             format!("0 valid; bits: {}", Status::legend()),
+        ));
+        own.push((
+            "slab_us".to_string(),
+            field.time_basis.describe_slab().to_string(),
         ));
     }
     if let Some(c) = &field.calibration {

@@ -4,8 +4,9 @@
 //! Dimensions `(time, y, x)`. Coordinate variables `time`, `y`, `x` (px, or mm with a
 //! calibration, then also `x_px`, `y_px`); data variables `u`, `v` (px/ms or m/s, NaN =
 //! invalid), `status` (`short`, CF flag variable: `flag_masks`, `flag_meanings`), `peak`,
-//! `peak_ratio` (`float`), `event_count` (`int`). A ground truth
-//! ([`FieldSeries::ground_truth`]) has only `u` and `v`: it has no status or quality.
+//! `peak_ratio` (`float`), `event_count` (`int`), `slab_us` (`int`, units `us`: the time slab
+//! each vector was measured over, see [`FieldSeries::slab_us`]). A ground truth
+//! ([`FieldSeries::ground_truth`]) has only `u` and `v`: it has no status, quality or slab.
 //!
 //! `time` is a CF time coordinate (`standard_name = "time"`, `calendar`, units
 //! `microseconds since 1970-01-01 00:00:00`) on the recording's camera clock: CF needs a
@@ -56,8 +57,11 @@ pub const TIME_UNITS: &str = "microseconds since 1970-01-01 00:00:00";
 /// Write `field` to `path` as NetCDF-3 (64-bit offset), through a temporary file.
 ///
 /// The status flags are stored as `short` (NetCDF-3 has no unsigned byte, and bit 7 is
-/// used) with CF `flag_masks`/`flag_meanings`. `event_count` is stored as `int`; a count
-/// above `i32::MAX` is an error rather than a silently clipped value.
+/// used) with CF `flag_masks`/`flag_meanings`. `event_count` and `slab_us` are stored as
+/// `int` (NetCDF-3 has no unsigned int); a value above `i32::MAX` (for `slab_us`, 35 minutes)
+/// is an error rather than a silently clipped one. `slab_us` has the units `us`, which UDUNITS
+/// reads as microseconds and xarray leaves as integers (`microseconds` would make xarray
+/// decode it to time deltas).
 pub fn write_field_netcdf(field: &FieldSeries, path: &Path) -> Result<()> {
     check(field)?;
     let (nt, ny, nx) = (field.t_us.len(), field.y.len(), field.x.len());
@@ -67,6 +71,12 @@ pub fn write_field_netcdf(field: &FieldSeries, path: &Path) -> Result<()> {
         .map(|&c| i32::try_from(c))
         .collect::<Result<_, _>>()
         .map_err(|_| nc_err(path, "an event count exceeds the NetCDF int range"))?;
+    let slab_us: Vec<i32> = field
+        .slab_us
+        .iter()
+        .map(|&c| i32::try_from(c))
+        .collect::<Result<_, _>>()
+        .map_err(|_| nc_err(path, "a slab length (slab_us) exceeds the NetCDF int range"))?;
     let status: Vec<i16> = field.status.iter().map(|s| s.0 as i16).collect();
     let written = Written::new(field);
     let calibrated = field.calibration.is_some();
@@ -92,6 +102,7 @@ pub fn write_field_netcdf(field: &FieldSeries, path: &Path) -> Result<()> {
         ds.add_var_f32("peak", &grid).map_err(err)?;
         ds.add_var_f32("peak_ratio", &grid).map_err(err)?;
         ds.add_var_i32("event_count", &grid).map_err(err)?;
+        ds.add_var_i32("slab_us", &grid).map_err(err)?;
     }
 
     let displacement = field.quantity == crate::field::Quantity::Displacement;
@@ -200,6 +211,17 @@ pub fn write_field_netcdf(field: &FieldSeries, path: &Path) -> Result<()> {
                 "events used in the window".into(),
             ),
             ("event_count", "units", "1".into()),
+            (
+                "slab_us",
+                "long_name",
+                "time span the vector was measured over".into(),
+            ),
+            ("slab_us", "units", "us".into()),
+            (
+                "slab_us",
+                "comment",
+                field.time_basis.describe_slab().into(),
+            ),
         ]);
     }
     if calibrated {
@@ -300,6 +322,7 @@ pub fn write_field_netcdf(field: &FieldSeries, path: &Path) -> Result<()> {
             w.write_var_f32("peak_ratio", &field.peak_ratio)
                 .map_err(werr)?;
             w.write_var_i32("event_count", &event_count).map_err(werr)?;
+            w.write_var_i32("slab_us", &slab_us).map_err(werr)?;
         }
         w.close().map_err(werr)
     })();
@@ -324,7 +347,9 @@ mod tests {
             f.peak[i] = 0.5 + i as f32;
             f.peak_ratio[i] = 1.5;
             f.event_count[i] = 100 + i as u32;
+            f.slab_us[i] = 10_000;
         }
+        f.slab_us[3] = 0;
         f.u[3] = f32::NAN;
         f.v[3] = f32::NAN;
         f.status[3] = Status::NO_EVENTS | Status::MASKED;
@@ -391,6 +416,14 @@ mod tests {
         assert!(ratio[3].is_nan() && ratio[4] == 1.5);
         let counts = r.read_var_i32("event_count").unwrap();
         assert_eq!(counts[11], 111);
+        let slabs = r.read_var_i32("slab_us").unwrap();
+        assert_eq!((slabs[3], slabs[11]), (0, 10_000));
+        assert_eq!(
+            ds.get_var_attr_as_string("slab_us", "units").as_deref(),
+            Some("us")
+        );
+        let comment = ds.get_var_attr_as_string("slab_us", "comment").unwrap();
+        assert!(comment.contains("sub-volumes"), "{comment}");
         assert!(!dir.path().join("f.nc.partial").exists());
     }
 
@@ -519,7 +552,7 @@ mod tests {
         let path = dir.path().join("truth.nc");
         write_field_netcdf(&f, &path).unwrap();
         let (ds, _) = netcdf3::FileReader::open(&path).unwrap().close();
-        for var in ["status", "peak", "peak_ratio", "event_count"] {
+        for var in ["status", "peak", "peak_ratio", "event_count", "slab_us"] {
             assert!(!ds.has_var(var), "{var}");
         }
         assert!(!ds.has_global_attr("status_flags"));
@@ -529,12 +562,17 @@ mod tests {
     }
 
     #[test]
-    fn event_counts_beyond_int_are_an_error() {
-        let mut f = series();
-        f.event_count[0] = u32::MAX;
+    fn event_counts_and_slabs_beyond_int_are_an_error() {
         let dir = tempfile::tempdir().unwrap();
         let path = dir.path().join("f.nc");
+        let mut f = series();
+        f.event_count[0] = u32::MAX;
         assert!(write_field_netcdf(&f, &path).is_err());
+        assert!(!path.exists());
+        let mut f = series();
+        f.slab_us[0] = i32::MAX as u32 + 1;
+        let e = write_field_netcdf(&f, &path).unwrap_err();
+        assert!(e.to_string().contains("slab_us"), "{e}");
         assert!(!path.exists());
     }
 }

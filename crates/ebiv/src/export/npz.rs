@@ -5,11 +5,12 @@
 //!
 //! Arrays: `x`, `y` (`<f8`, px), `t_us` (`<i8`), and with shape `(nt, ny, nx)`: `u`, `v`
 //! (`<f4`, px/ms, NaN = invalid), `status` (`|u1`, bits of [`Status`]), `peak`,
-//! `peak_ratio` (`<f4`), `event_count` (`<u4`). With a calibration also `x_mm`, `y_mm`
+//! `peak_ratio` (`<f4`), `event_count`, `slab_us` (`<u4`; the time slab each vector was
+//! measured over, µs, 0 where there is none). With a calibration also `x_mm`, `y_mm`
 //! (`<f8`) and `u_m_s`, `v_m_s` (`<f4`; y and v positive up when `y_up`). `attributes` is a
 //! 1-D unicode array (`<U…`) of `key=value` strings: axis convention, units, status legend,
-//! calibration, software and the series' attributes. Everything loads with
-//! `numpy.load(path)` without pickles.
+//! what `slab_us` holds, calibration, software and the series' attributes. Everything loads
+//! with `numpy.load(path)` without pickles.
 //!
 //! [`Status`]: crate::field::Status
 
@@ -114,6 +115,7 @@ pub fn write_field_npz(field: &FieldSeries, path: &Path) -> Result<()> {
         ("peak", npy(&field.peak, &shape)),
         ("peak_ratio", npy(&field.peak_ratio, &shape)),
         ("event_count", npy(&field.event_count, &shape)),
+        ("slab_us", npy(&field.slab_us, &shape)),
     ];
     if let Some(c) = &field.calibration {
         let p = Physical::new(field, c);
@@ -198,6 +200,7 @@ mod tests {
                 "event_count.npy",
                 "peak.npy",
                 "peak_ratio.npy",
+                "slab_us.npy",
                 "status.npy",
                 "t_us.npy",
                 "u.npy",

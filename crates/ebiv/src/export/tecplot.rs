@@ -5,9 +5,10 @@
 //!
 //! Variables: `x`, `y` (with their unit in the name: `x [px]` or `x [mm]`), `u`, `v`
 //! (`[px/ms]` or `[m/s]`), `status` (0 = valid, else the bits of [`Status`]), `peak`,
-//! `peak_ratio`, `event_count`. All zones share `STRANDID=1` and carry
-//! `SOLUTIONTIME` = the field time **in microseconds**, so Tecplot animates them as one
-//! transient series.
+//! `peak_ratio`, `event_count`, `slab_us` (the time slab each vector was measured over, µs, 0
+//! where there is none; described in `DATASETAUXDATA slab_us`). All zones share `STRANDID=1`
+//! and carry `SOLUTIONTIME` = the field time **in microseconds**, so Tecplot animates them as
+//! one transient series.
 //!
 //! The ASCII grammar has no not-a-number token, and Tecplot's readers are not documented to
 //! accept `NaN`; zero would pass for a measured vector. Non-finite values (invalid `u`, `v`,
@@ -55,7 +56,7 @@ pub fn write_field_tecplot(field: &FieldSeries, path: &Path) -> Result<()> {
         writeln!(
             out,
             "VARIABLES = \"x [{lu}]\" \"y [{lu}]\" \"u [{vu}]\" \"v [{vu}]\" \"status\" \
-             \"peak\" \"peak_ratio\" \"event_count\""
+             \"peak\" \"peak_ratio\" \"event_count\" \"slab_us\""
         )?;
         for (k, v) in &meta {
             writeln!(out, "DATASETAUXDATA {k}=\"{}\"", quote(v))?;
@@ -65,8 +66,8 @@ pub fn write_field_tecplot(field: &FieldSeries, path: &Path) -> Result<()> {
             writeln!(
                 out,
                 "ZONE T=\"t = {t} us\", I={}, J={}, K=1, ZONETYPE=ORDERED, DATAPACKING=POINT, \
-                 DT=(DOUBLE DOUBLE SINGLE SINGLE SHORTINT SINGLE SINGLE DOUBLE), STRANDID=1, \
-                 SOLUTIONTIME={t}",
+                 DT=(DOUBLE DOUBLE SINGLE SINGLE SHORTINT SINGLE SINGLE DOUBLE DOUBLE), \
+                 STRANDID=1, SOLUTIONTIME={t}",
                 field.x.len(),
                 field.y.len()
             )?;
@@ -76,7 +77,7 @@ pub fn write_field_tecplot(field: &FieldSeries, path: &Path) -> Result<()> {
                     let i = field.index(ti, row, col);
                     writeln!(
                         out,
-                        "{} {} {} {} {} {} {} {}",
+                        "{} {} {} {} {} {} {} {} {}",
                         num(*x),
                         num(*y),
                         num(w.u[i] as f64),
@@ -84,7 +85,8 @@ pub fn write_field_tecplot(field: &FieldSeries, path: &Path) -> Result<()> {
                         field.status[i].0,
                         num(field.peak[i] as f64),
                         num(field.peak_ratio[i] as f64),
-                        field.event_count[i]
+                        field.event_count[i],
+                        field.slab_us[i]
                     )?;
                 }
             }
@@ -155,6 +157,6 @@ mod tests {
         assert!(zones[1].contains("SOLUTIONTIME=200") && zones[1].contains("I=3, J=2"));
         assert!(text.contains("DATASETAUXDATA note=\"say \\\"hi\\\"\""));
         assert!(text.contains("\"x [px]\" \"y [px]\" \"u [px/ms]\""));
-        assert!(text.contains("\n0 4 1.25 -1e30 0 -1e30 -1e30 0\n"));
+        assert!(text.contains("\n0 4 1.25 -1e30 0 -1e30 -1e30 0 0\n"));
     }
 }

@@ -2,9 +2,10 @@
 //! Legacy Formats"): `DATASET RECTILINEAR_GRID` with `DIMENSIONS nx ny 1`, `X_COORDINATES`,
 //! `Y_COORDINATES` (`double`), `Z_COORDINATES` (0), and `POINT_DATA` with
 //! `VECTORS velocity float` (u, v, 0), `SCALARS status unsigned_char` (0 = valid, else the
-//! bits of [`Status`]) and a `FIELD` with `peak`, `peak_ratio` (`float`) and `event_count`
-//! (`unsigned_int`): field arrays are loaded by every legacy reader, where a second
-//! `SCALARS` section is skipped unless the reader is told to read all of them.
+//! bits of [`Status`]) and a `FIELD` with `peak`, `peak_ratio` (`float`), `event_count` and
+//! `slab_us` (`unsigned_int`; the time slab each vector was measured over, µs, 0 where there
+//! is none): field arrays are loaded by every legacy reader, where a second `SCALARS`
+//! section is skipped unless the reader is told to read all of them.
 //!
 //! The files are `BINARY` (big-endian, as the legacy format prescribes): VTK's ASCII legacy
 //! reader does not parse `nan`, and invalid vectors must stay NaN, never zero.
@@ -168,7 +169,7 @@ fn write_step(
     out.write_all(&buf)?;
     // Further arrays as field data, which every legacy reader loads (only the first
     // SCALARS is read unless the reader is told to read all).
-    writeln!(out, "\nFIELD FieldData 3")?;
+    writeln!(out, "\nFIELD FieldData 4")?;
     let n = nx * ny;
     for (k, (name, data)) in [("peak", &field.peak), ("peak_ratio", &field.peak_ratio)]
         .into_iter()
@@ -184,12 +185,17 @@ fn write_step(
         }
         out.write_all(&buf)?;
     }
-    writeln!(out, "\nevent_count 1 {n} unsigned_int")?;
-    buf.clear();
-    for i in points() {
-        buf.extend_from_slice(&field.event_count[i].to_be_bytes());
+    for (name, data) in [
+        ("event_count", &field.event_count),
+        ("slab_us", &field.slab_us),
+    ] {
+        writeln!(out, "\n{name} 1 {n} unsigned_int")?;
+        buf.clear();
+        for i in points() {
+            buf.extend_from_slice(&data[i].to_be_bytes());
+        }
+        out.write_all(&buf)?;
     }
-    out.write_all(&buf)?;
     writeln!(out)
 }
 

@@ -57,6 +57,18 @@ pub struct FramePlan {
     pub t0_us: i64,
 }
 
+impl FramePlan {
+    /// The time span of the field's frames, from the start of the first to the end of the
+    /// last, µs: `pairs × Δt + exposure` for regular frames. Every event of a frame lies in
+    /// it; the field's vectors record it as their
+    /// [`slab_us`](crate::field::VectorField::slab_us).
+    pub fn span_us(&self) -> i64 {
+        let first = self.starts.first().copied().unwrap_or(0);
+        let last = self.starts.last().copied().unwrap_or(0);
+        last.saturating_add(self.exposure_us).saturating_sub(first)
+    }
+}
+
 /// Most frame pairs per field.
 pub const MAX_PAIRS: u32 = 64;
 /// Most memory the frames of one field may take (frames, resampling coefficients, deformed
@@ -103,6 +115,16 @@ impl EventPivParams {
                     ));
                 }
             }
+        }
+        let span = self.plan(0).span_us();
+        if u32::try_from(span).is_err() {
+            return Err(Error::parameter(
+                "pairs",
+                format!(
+                    "the frames of one field would span {span} µs, longer than the {} µs (71 minutes) a vector's time slab can record; use fewer pairs or a shorter frame step",
+                    u32::MAX
+                ),
+            ));
         }
         Ok(())
     }
@@ -212,6 +234,8 @@ pub fn piv_events<S: BatchSource>(
         let out = piv_ensemble(&pairs, &params.piv.over_interval(dt_ms))?;
         let mut field = out.field;
         field.scale(1.0 / dt_ms);
+        // `check` keeps the span within u32.
+        field.set_slab_us(u32::try_from(plan.span_us()).unwrap_or(u32::MAX));
         summary.fields += 1;
         summary.vectors += field.len();
         summary.valid += field.status.iter().filter(|s| s.is_valid()).count();

@@ -24,7 +24,9 @@ pub struct ImageSeriesParams {
     /// One field from the summed correlation planes of all pairs.
     pub ensemble: bool,
     /// Time between the two frames of a pair, µs: velocities in px/ms instead of
-    /// displacements in px.
+    /// displacements in px. The fields record it as their
+    /// [`slab_us`](crate::field::VectorField::slab_us) (0 without it: image files carry no
+    /// time).
     pub dt_us: Option<i64>,
 }
 
@@ -134,6 +136,18 @@ pub fn piv_image_series(
         Grid::new(pass, geometry)?;
     }
     let dt_ms = params.dt_us.map(|d| d as f64 / 1000.0);
+    let slab_us = match params.dt_us {
+        None => 0,
+        Some(dt) => u32::try_from(dt).ok().filter(|&d| d > 0).ok_or_else(|| {
+            Error::parameter(
+                "dt",
+                format!(
+                    "{dt} µs: the time between the frames must be 1 µs to {} µs",
+                    u32::MAX
+                ),
+            )
+        })?,
+    };
     let mut series: Option<FieldSeries> = None;
     let mut summary = RunSummary::default();
     for (index, group) in groups.iter().enumerate() {
@@ -146,6 +160,7 @@ pub fn piv_image_series(
         if let Some(dt) = dt_ms {
             field.scale(1.0 / dt);
         }
+        field.set_slab_us(slab_us);
         summary.fields += 1;
         summary.vectors += field.len();
         summary.valid += field.status.iter().filter(|s| s.is_valid()).count();
@@ -247,5 +262,38 @@ mod tests {
         let e = image_pairs(3, false).unwrap_err();
         assert!(e.to_string().contains("--sequence"), "{e}");
         assert!(image_pairs(1, true).is_err());
+    }
+
+    /// A pair's fields record the time between its frames when it is given, and none (0)
+    /// when image files are all there is.
+    #[test]
+    fn fields_record_the_time_between_the_frames() {
+        let dots = |shift: u32| {
+            Frame::from_fn(64, 64, move |x, y| {
+                let x = x.wrapping_sub(shift);
+                f32::from(u8::from(
+                    (x.wrapping_mul(7919) ^ y.wrapping_mul(104_729)) % 11 == 0,
+                ))
+            })
+        };
+        let frames = [dots(0), dots(1)];
+        let paths = [PathBuf::from("a.png"), PathBuf::from("b.png")];
+        let params = |dt_us| ImageSeriesParams {
+            piv: PivParams {
+                passes: vec![crate::grid::GridSpec::square(32, 16)],
+                ..PivParams::default()
+            },
+            sequence: false,
+            ensemble: false,
+            dt_us,
+        };
+        let run = |dt_us| piv_image_series(&frames, &paths, &params(dt_us), &mut |_| Ok(()));
+        let (series, _) = run(Some(2000)).unwrap();
+        assert!(!series.slab_us.is_empty());
+        assert!(series.slab_us.iter().all(|&s| s == 2000));
+        let (series, _) = run(None).unwrap();
+        assert!(series.slab_us.iter().all(|&s| s == 0));
+        let e = run(Some(0)).unwrap_err();
+        assert!(e.to_string().contains("dt"), "{e}");
     }
 }

@@ -20,7 +20,9 @@
 //! Results are displacements in px from the first to the second frame of a pair, on the same
 //! [`VectorField`] as every other estimator, with status flags, peak (correlation coefficient
 //! of the deformed windows), peak ratio and the number of non-zero pixels of the first frame's
-//! window in `event_count`.
+//! window in `event_count`. Frames carry no time, so `slab_us` stays 0 here; [`piv_events`]
+//! records the time span of each field's frames in it, [`images::piv_image_series`] the time
+//! between the frames of a pair when it is given.
 
 pub mod correlate;
 pub mod events;

@@ -255,7 +255,7 @@ fn evaluate_pass<E: Estimator>(
             || estimator.scratch(grid.window),
             |scratch, i| {
                 if grid.is_masked(i, params.mask.as_ref()) {
-                    return crate::estimate::WindowEstimate::invalid(Status::MASKED, 0);
+                    return crate::estimate::WindowEstimate::invalid(Status::MASKED, 0, 0);
                 }
                 let window = grid.window(i);
                 let c = window.centre();
@@ -272,10 +272,76 @@ fn evaluate_pass<E: Estimator>(
         field.peak[i] = e.peak;
         field.peak_ratio[i] = e.peak_ratio;
         field.event_count[i] = e.event_count;
+        field.slab_us[i] = e.slab_us;
         if !e.status.is_valid() {
             field.u[i] = f32::NAN;
             field.v[i] = f32::NAN;
         }
     }
     field
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::estimate::corrsum::{CorrSumParams, SumOfCorrelation};
+    use crate::estimate::motion::{ContrastMaximization, MotionParams};
+
+    /// Every evaluated window records the estimator's slab T, with or without events; a
+    /// masked window, which is not evaluated, records none.
+    #[test]
+    fn every_evaluated_window_records_its_slab_and_masked_ones_none() {
+        let geometry = Geometry::new(64, 64);
+        let slab = Slab::build(
+            &[],
+            &[],
+            &[],
+            &[],
+            geometry,
+            0,
+            10_000,
+            PolaritySelection::Both,
+            8,
+        );
+        let mut masked = vec![false; 64 * 64];
+        for row in masked.chunks_mut(64) {
+            row[..32].fill(true);
+        }
+        let params = ProcessParams {
+            passes: vec![GridSpec::square(32, 16)],
+            mask: Some(Mask {
+                width: 64,
+                height: 64,
+                masked,
+            }),
+            ..ProcessParams::default()
+        };
+        let grids = params.grids(geometry).unwrap();
+        let corrsum = SumOfCorrelation::new(CorrSumParams {
+            slab_us: 7000,
+            ..CorrSumParams::default()
+        })
+        .unwrap();
+        let motion = ContrastMaximization::new(MotionParams {
+            slab_us: 7000,
+            ..MotionParams::default()
+        })
+        .unwrap();
+        let fields = [
+            process_slab(&corrsum, &slab, 5000, &grids, &params).field,
+            process_slab(&motion, &slab, 5000, &grids, &params).field,
+        ];
+        for field in fields {
+            for i in 0..field.len() {
+                if field.status[i].contains(Status::MASKED) {
+                    assert_eq!(field.slab_us[i], 0, "masked vector {i}");
+                } else {
+                    assert_eq!(field.status[i], Status::NO_EVENTS);
+                    assert_eq!(field.slab_us[i], 7000, "vector {i}");
+                }
+            }
+            assert!(field.status.iter().any(|s| s.contains(Status::MASKED)));
+            assert!(field.status.contains(&Status::NO_EVENTS));
+        }
+    }
 }

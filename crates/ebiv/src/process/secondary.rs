@@ -107,6 +107,7 @@ pub(super) fn reevaluate_outliers<E: Estimator>(
         field.peak[i] = e.peak;
         field.peak_ratio[i] = e.peak_ratio;
         field.event_count[i] = e.event_count;
+        field.slab_us[i] = e.slab_us;
     }
     accepted.len()
 }
@@ -152,13 +153,14 @@ mod tests {
                 peak: 1.0,
                 peak_ratio: ratio,
                 event_count: 50,
+                slab_us: 4000,
             };
             match p.and_then(|p| Some((p.velocity, p.search_radius?))) {
                 None => found(self.high, 1.0 / self.ratio),
                 Some((c, r)) if (0..2).all(|k| (self.low[k] - c[k]).abs() <= r) => {
                     found(self.low, self.ratio)
                 }
-                Some(_) => WindowEstimate::invalid(Status::NO_PEAK, 50),
+                Some(_) => WindowEstimate::invalid(Status::NO_PEAK, 50, 4000),
             }
         }
         fn parameters(&self) -> Vec<(String, String)> {
@@ -241,6 +243,9 @@ mod tests {
         assert!(field.status[i].is_valid());
         assert_eq!([field.u[i], field.v[i]], [1.05, 0.02]);
         assert_eq!(field.peak_ratio[i], 0.7);
+        // The accepted estimate brings its own slab (the field was built without one).
+        assert_eq!(field.slab_us[i], 4000);
+        assert_eq!(field.slab_us[field.index(2, 1)], 0);
     }
 
     #[test]
