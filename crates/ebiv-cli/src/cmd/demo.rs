@@ -71,7 +71,7 @@ pub struct DemoArgs {
 
 pub fn run(args: &DemoArgs) -> Result<(), ebiv::Error> {
     std::fs::create_dir_all(&args.output).map_err(|e| ebiv::Error::io(&args.output, e))?;
-    let mut scenario = super::simulate::parse_scenario(DEMO_SCENARIO, "demo")?;
+    let mut scenario = ebiv::sim::scenario::Scenario::from_toml(DEMO_SCENARIO, "demo")?;
     scenario.seed = args.seed;
     let sim = scenario.simulation()?;
     let g = sim.geometry;

@@ -14,7 +14,8 @@ pub struct SimulateArgs {
     /// Scenario file (TOML). See `--print-example uniform` for a commented one.
     #[arg(required_unless_present_any = ["example", "print_example", "list_examples"])]
     pub scenario: Option<PathBuf>,
-    /// Run a ready scenario instead: uniform, turntable, vortex, shear-layer.
+    /// Run a ready scenario instead: uniform, turntable, vortex, shear-layer, mixing-layer,
+    /// paper-rate (see --list-examples).
     #[arg(long, value_name = "NAME", conflicts_with = "scenario")]
     pub example: Option<String>,
     /// Print a ready scenario's TOML (to edit and pass back) and exit.
@@ -49,7 +50,7 @@ pub fn run(args: &SimulateArgs) -> Result<(), ebiv::Error> {
         return Ok(());
     }
     if let Some(name) = &args.print_example {
-        print!("{}", example_text(name)?);
+        print!("{}", Scenario::example_text(name)?);
         return Ok(());
     }
     let (mut scenario, origin) = load_scenario(args.example.as_deref(), args.scenario.as_deref())?;
@@ -221,16 +222,6 @@ fn check_directory(path: &Path) -> Result<(), ebiv::Error> {
     ))
 }
 
-fn example_text(name: &str) -> Result<&'static str, ebiv::Error> {
-    Scenario::example(name).ok_or_else(|| {
-        let names: Vec<&str> = EXAMPLES.iter().map(|e| e.0).collect();
-        ebiv::Error::parameter(
-            "example",
-            format!("`{name}` is not one of {}", names.join(", ")),
-        )
-    })
-}
-
 /// The ready scenario `example` or else the scenario file `path` (its gridded flow files
 /// named relative to the file), with a name for it in messages.
 pub fn load_scenario(
@@ -238,7 +229,10 @@ pub fn load_scenario(
     path: Option<&Path>,
 ) -> Result<(Scenario, String), ebiv::Error> {
     let (text, origin) = match (example, path) {
-        (Some(name), _) => (example_text(name)?.to_string(), format!("example `{name}`")),
+        (Some(name), _) => (
+            Scenario::example_text(name)?.to_string(),
+            format!("example `{name}`"),
+        ),
         (None, Some(path)) => (
             std::fs::read_to_string(path).map_err(|e| ebiv::Error::io(path, e))?,
             path.display().to_string(),
@@ -250,50 +244,11 @@ pub fn load_scenario(
             ))
         }
     };
-    let mut scenario = parse_scenario(&text, &origin)?;
+    let mut scenario = Scenario::from_toml(&text, &origin)?;
     if let Some(dir) = path.and_then(Path::parent) {
         if example.is_none() {
             scenario.flow = scenario.flow.with_base_dir(dir);
         }
     }
     Ok((scenario, origin))
-}
-
-/// Parse a TOML scenario; errors name the file and line.
-pub fn parse_scenario(text: &str, origin: &str) -> Result<Scenario, ebiv::Error> {
-    toml::from_str(text).map_err(|e| ebiv::Error::Parse {
-        context: origin.to_string(),
-        line: e.span().map_or(0, |s| line_of(text, s.start)),
-        message: e.message().to_string(),
-    })
-}
-
-/// The 1-based line holding byte `offset` of `text` (the last line for an offset past the end).
-fn line_of(text: &str, offset: usize) -> u64 {
-    let before = &text.as_bytes()[..offset.min(text.len())];
-    before.iter().filter(|&&b| b == b'\n').count() as u64 + 1
-}
-
-#[cfg(test)]
-mod tests {
-    use super::{line_of, parse_scenario};
-
-    #[test]
-    fn lines_count_from_one_and_a_line_starts_after_its_newline() {
-        let text = "a = 1\nb = 2\n\nc";
-        assert_eq!(line_of(text, 0), 1);
-        assert_eq!(line_of(text, 5), 1);
-        assert_eq!(line_of(text, 6), 2);
-        assert_eq!(line_of(text, 12), 3);
-        assert_eq!(line_of(text, 13), 4);
-        assert_eq!(line_of(text, 1000), 4);
-    }
-
-    #[test]
-    fn a_scenario_error_names_the_line_of_the_offending_key() {
-        let text = "seed = 1\n\n[illumination]\nbackground = 1.0\nflicker_depth = 0.2\n";
-        let err = parse_scenario(text, "s.toml").unwrap_err().to_string();
-        assert!(err.contains("s.toml, line 5:"), "{err}");
-        assert!(err.contains("flicker_depth"), "{err}");
-    }
 }

@@ -11,7 +11,7 @@
 //! circulation turns **clockwise on screen**.
 //!
 //! * closed-form paths ([`analytic`]): [`Uniform`], [`SolidBodyRotation`], [`RankineVortex`],
-//!   [`LambOseenVortex`], [`Couette`], [`Poiseuille`], [`StagnationPoint`];
+//!   [`LambOseenVortex`], [`Couette`], [`MixingLayer`], [`Poiseuille`], [`StagnationPoint`];
 //! * integrated paths ([`streams`]): [`Sinusoidal`], [`Cellular`], [`Superposition`];
 //! * user data ([`gridded`]): [`GriddedFlow`] from CSV or NetCDF classic files;
 //! * configuration ([`spec`]): [`FlowSpec`], the `[flow]` table of a scenario file.
@@ -24,8 +24,8 @@ pub mod streams;
 mod tests;
 
 pub use analytic::{
-    Couette, LambOseenVortex, Poiseuille, RankineVortex, SolidBodyRotation, StagnationPoint,
-    Uniform,
+    Couette, LambOseenVortex, MixingLayer, Poiseuille, RankineVortex, SolidBodyRotation,
+    StagnationPoint, Uniform,
 };
 pub use gridded::GriddedFlow;
 pub use spec::FlowSpec;

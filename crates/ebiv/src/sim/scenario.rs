@@ -249,7 +249,7 @@ impl Default for TruthSpec {
 }
 
 /// The ready scenarios: name, one-line description, TOML.
-pub const EXAMPLES: [(&str, &str, &str); 5] = [
+pub const EXAMPLES: [(&str, &str, &str); 6] = [
     (
         "uniform",
         "uniform flow at 2 px/ms, 640x480, gen4 sensor",
@@ -271,6 +271,11 @@ pub const EXAMPLES: [(&str, &str, &str); 5] = [
         include_str!("examples/shear_layer.toml"),
     ),
     (
+        "mixing-layer",
+        "tanh mixing layer from 0.05 to 5 px/ms, 256x128, ideal sensor, 400 ms",
+        include_str!("examples/mixing_layer.toml"),
+    ),
+    (
         "paper-rate",
         "1280x720 at about 20 M events/s, the EBIV paper's data rate (benchmark scene)",
         include_str!("examples/paper_rate.toml"),
@@ -278,9 +283,61 @@ pub const EXAMPLES: [(&str, &str, &str); 5] = [
 ];
 
 impl Scenario {
+    /// A scenario of `flow` seen for `duration_us` by a `width` × `height` sensor of the
+    /// preset `preset` (`ideal`, `gen4` or `noisy`), everything else at the defaults of a
+    /// scenario file that leaves it out: seed 1, start 0, the default [`SeedingParams`],
+    /// continuous light ([`IlluminationParams`]), the sampling for that light
+    /// ([`Sampling::resolve`]) and the default [`TruthSpec`]. Change the public fields to
+    /// set the rest (`scenario.particles.density = 0.05`); [`Scenario::simulation`] checks
+    /// them all.
+    pub fn new(width: u32, height: u32, preset: &str, flow: FlowSpec, duration_us: i64) -> Self {
+        Scenario {
+            seed: default_seed(),
+            duration: duration_us,
+            start: 0,
+            sensor: SensorSection {
+                width,
+                height,
+                preset: preset.to_string(),
+                overrides: BTreeMap::new(),
+            },
+            flow,
+            particles: SeedingParams::default(),
+            illumination: IlluminationParams::default(),
+            sampling: Sampling::default(),
+            truth: TruthSpec::default(),
+        }
+    }
+
+    /// Read a scenario from TOML; `origin` (a file name, or `example NAME`) and the line of
+    /// the offending key name the place of an error.
+    pub fn from_toml(text: &str, origin: &str) -> Result<Scenario> {
+        toml::from_str(text).map_err(|e| Error::Parse {
+            context: origin.to_string(),
+            line: e.span().map_or(0, |s| line_of(text, s.start)),
+            message: e.message().to_string(),
+        })
+    }
+
+    /// The ready scenario `name` ([`EXAMPLES`]), to run as it is or to change.
+    pub fn from_example(name: &str) -> Result<Scenario> {
+        Scenario::from_toml(Scenario::example_text(name)?, &format!("example `{name}`"))
+    }
+
     /// The TOML of a ready scenario.
     pub fn example(name: &str) -> Option<&'static str> {
         EXAMPLES.iter().find(|e| e.0 == name).map(|e| e.2)
+    }
+
+    /// The TOML of a ready scenario, or an error listing the ready scenarios.
+    pub fn example_text(name: &str) -> Result<&'static str> {
+        Scenario::example(name).ok_or_else(|| {
+            let names: Vec<&str> = EXAMPLES.iter().map(|e| e.0).collect();
+            Error::parameter(
+                "example",
+                format!("`{name}` is not one of {}", names.join(", ")),
+            )
+        })
     }
 
     /// The sensor parameters: the preset with the overrides applied, validated.
@@ -325,6 +382,12 @@ impl Scenario {
         sim.validate()?;
         Ok(sim)
     }
+}
+
+/// The 1-based line holding byte `offset` of `text` (the last line for an offset past the end).
+fn line_of(text: &str, offset: usize) -> u64 {
+    let before = &text.as_bytes()[..offset.min(text.len())];
+    before.iter().filter(|&&b| b == b'\n').count() as u64 + 1
 }
 
 /// Set the [`SensorParams`] field named `key`.
@@ -384,7 +447,49 @@ mod tests {
     use crate::sim::scene::LightMode;
 
     fn parse(text: &str, origin: &str) -> Result<Scenario> {
-        toml::from_str(text).map_err(|e| Error::parameter(origin, e.to_string()))
+        Scenario::from_toml(text, origin)
+    }
+
+    #[test]
+    fn lines_count_from_one_and_a_line_starts_after_its_newline() {
+        let text = "a = 1\nb = 2\n\nc";
+        assert_eq!(line_of(text, 0), 1);
+        assert_eq!(line_of(text, 5), 1);
+        assert_eq!(line_of(text, 6), 2);
+        assert_eq!(line_of(text, 12), 3);
+        assert_eq!(line_of(text, 13), 4);
+        assert_eq!(line_of(text, 1000), 4);
+    }
+
+    #[test]
+    fn a_scenario_error_names_the_line_of_the_offending_key() {
+        let text = "seed = 1\n\n[illumination]\nbackground = 1.0\nflicker_depth = 0.2\n";
+        let err = Scenario::from_toml(text, "s.toml").unwrap_err().to_string();
+        assert!(err.contains("s.toml, line 5:"), "{err}");
+        assert!(err.contains("flicker_depth"), "{err}");
+        let err = Scenario::from_example("tornado").unwrap_err().to_string();
+        assert!(
+            err.contains("tornado") && err.contains("mixing-layer"),
+            "{err}"
+        );
+    }
+
+    /// A scenario built in code is the scenario file that gives only the same keys.
+    #[test]
+    fn a_scenario_built_in_code_takes_the_file_defaults() {
+        let text = "duration = \"40ms\"\n[sensor]\nwidth = 192\nheight = 96\npreset = \"ideal\"\n\
+                    [flow]\ntype = \"uniform\"\nu = 2.0\nv = -0.5\n";
+        let file = Scenario::from_toml(text, "t").unwrap();
+        let code = Scenario::new(192, 96, "ideal", FlowSpec::uniform(2.0, -0.5), 40_000);
+        assert_eq!(format!("{code:?}"), format!("{file:?}"));
+        let sim = code.simulation().unwrap();
+        assert_eq!(sim.sensor, SensorParams::ideal());
+        assert_eq!(sim.velocity(10.0, 20.0, 5_000.0), (2.0, -0.5));
+        let mixing = Scenario::from_example("mixing-layer").unwrap();
+        let sim = mixing.simulation().unwrap();
+        assert_eq!((sim.geometry.width, sim.geometry.height), (256, 128));
+        let (top, bottom) = (sim.velocity(0.0, 0.0, 0.0), sim.velocity(0.0, 127.0, 0.0));
+        assert!((top.0 - 0.05).abs() < 1e-6 && (bottom.0 - 5.0).abs() < 1e-6);
     }
 
     #[test]

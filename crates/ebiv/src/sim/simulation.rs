@@ -244,6 +244,13 @@ impl Simulation {
         Ok(())
     }
 
+    /// The true velocity (u, v), px/ms, at `(x, y)` px (image axes, y down) and time `t_us`:
+    /// the flow's, along which the particles move exactly (sensor-model.md §6). For a grid of
+    /// it over the recording, see [`super::truth::velocity_field`].
+    pub fn velocity(&self, x: f64, y: f64, t_us: f64) -> (f64, f64) {
+        self.flow.velocity(x, y, t_us)
+    }
+
     /// The flow's largest speed over the sensor at the start, px/ms.
     fn start_speed(&self) -> f64 {
         let (w, h) = (self.geometry.width as f64, self.geometry.height as f64);

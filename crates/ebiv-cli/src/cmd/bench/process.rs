@@ -38,7 +38,7 @@ pub struct ProcessBenchArgs {
 
 pub fn run(args: &ProcessBenchArgs) -> Result<(), ebiv::Error> {
     let text = ebiv::sim::scenario::Scenario::example("paper-rate").expect("built-in example");
-    let mut scenario = crate::cmd::simulate::parse_scenario(text, "paper-rate")?;
+    let mut scenario = ebiv::sim::scenario::Scenario::from_toml(text, "paper-rate")?;
     scenario.duration = args.duration;
     if let Some(density) = args.density {
         scenario.particles.density = density;

@@ -244,7 +244,8 @@ impl Flow for Couette {
     fn velocity(&self, x: f64, y: f64, _t_us: f64) -> (f64, f64) {
         let speed = self.gradient_per_ms * self.s(x, y);
         let (sin, cos) = self.angle_rad.sin_cos();
-        (speed * cos, -speed * sin)
+        // `0.0 −` keeps v at +0 rather than −0 when unrotated (as files print it).
+        (speed * cos, 0.0 - speed * sin)
     }
 
     fn advect(&self, p: (f64, f64), t0_us: f64, t1_us: f64) -> (f64, f64) {
@@ -261,6 +262,94 @@ impl Flow for Couette {
             .map(|&(x, y)| self.s(x, y).abs())
             .fold(0.0, f64::max);
         self.gradient_per_ms.abs() * s_max
+    }
+}
+
+/// Hyperbolic-tangent mixing layer between two streams, optionally rotated like [`Couette`]:
+/// with `s = (y − y0) cos α + (x − x0) sin α`,
+///
+/// `U(s) = u1 + (u2 − u1) · (1 + tanh(s / δ)) / 2`,  `u = U(s) cos α`, `v = −U(s) sin α`.
+///
+/// The profile is the classical model of a plane free shear layer: Michalke, "On the inviscid
+/// instability of the hyperbolic-tangent velocity profile", J. Fluid Mech. 19:543–556 (1964),
+/// whose length scale is δ here; Pope, *Turbulent Flows* (2000), §5.4 (the plane mixing
+/// layer). It gives an estimator a velocity gradient of known width between two uniform
+/// streams of chosen speeds. The largest shear, `(u2 − u1) / (2δ)`, is on the centre line
+/// `s = 0`, where `U = (u1 + u2) / 2`; the vorticity thickness `(u2 − u1) / max |dU/ds|` is
+/// 2δ and the momentum thickness `∫ (U − u1)(u2 − U) / (u2 − u1)² ds` is δ / 2. From
+/// s = −2δ to 2δ the velocity covers tanh 2 = 96 % of the difference.
+///
+/// At α = 0 this is `u = U(y − y0), v = 0`: `u1` far above the centre line `y = y0` (the top
+/// of the image, y points down) and `u2` far below it. A positive α turns the flow direction
+/// `(cos α, −sin α)` counter-clockwise on screen; the centre line passes through `(x0, y0)`.
+/// Exact path: s is conserved and the particle advances by U(s) t along the flow direction.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct MixingLayer {
+    /// Velocity far on the side s → −∞ (above the centre line at α = 0), px/ms.
+    pub u1: f64,
+    /// Velocity far on the side s → +∞ (below the centre line at α = 0), px/ms.
+    pub u2: f64,
+    /// x of a point on the centre line, px (irrelevant at α = 0).
+    pub x0: f64,
+    /// y of a point on the centre line, px.
+    pub y0: f64,
+    /// Thickness δ, px: the length scale of the tanh (half the vorticity thickness).
+    pub thickness_px: f64,
+    /// Rotation α of the flow direction from +x, rad (positive = counter-clockwise on screen).
+    pub angle_rad: f64,
+}
+
+impl MixingLayer {
+    /// Horizontal layer `u = U(y − y0)`: `u1` above the centre line `y = y0`, `u2` below it.
+    pub fn horizontal(u1: f64, u2: f64, y0: f64, thickness_px: f64) -> Self {
+        MixingLayer {
+            u1,
+            u2,
+            x0: 0.0,
+            y0,
+            thickness_px,
+            angle_rad: 0.0,
+        }
+    }
+
+    /// The cross-stream coordinate s of `(x, y)`, px (0 on the centre line).
+    pub fn s(&self, x: f64, y: f64) -> f64 {
+        let (sin, cos) = self.angle_rad.sin_cos();
+        (y - self.y0) * cos + (x - self.x0) * sin
+    }
+
+    /// The streamwise velocity U(s), px/ms.
+    pub fn profile(&self, s: f64) -> f64 {
+        self.u1 + (self.u2 - self.u1) * 0.5 * (1.0 + (s / self.thickness_px).tanh())
+    }
+
+    /// The shear dU/ds, 1/ms: `(u2 − u1) / (2δ) · sech²(s / δ)`.
+    pub fn shear_rate(&self, s: f64) -> f64 {
+        let sech = 1.0 / (s / self.thickness_px).cosh();
+        (self.u2 - self.u1) / (2.0 * self.thickness_px) * sech * sech
+    }
+}
+
+impl Flow for MixingLayer {
+    fn velocity(&self, x: f64, y: f64, _t_us: f64) -> (f64, f64) {
+        let speed = self.profile(self.s(x, y));
+        let (sin, cos) = self.angle_rad.sin_cos();
+        (speed * cos, 0.0 - speed * sin)
+    }
+
+    fn advect(&self, p: (f64, f64), t0_us: f64, t1_us: f64) -> (f64, f64) {
+        let (u, v) = self.velocity(p.0, p.1, t0_us);
+        let t = elapsed_ms(t0_us, t1_us);
+        (p.0 + u * t, p.1 + v * t)
+    }
+
+    fn max_speed(&self, w: f64, h: f64, _t_us: f64) -> f64 {
+        // U is monotonic in s, and s is linear: |U| is largest at a corner.
+        let corners = [(0.0, 0.0), (w, 0.0), (0.0, h), (w, h)];
+        corners
+            .iter()
+            .map(|&(x, y)| self.profile(self.s(x, y)).abs())
+            .fold(0.0, f64::max)
     }
 }
 

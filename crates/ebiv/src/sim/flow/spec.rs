@@ -13,8 +13,8 @@
 //! turn clockwise on screen (y points down). Formulas: sensor-model.md §5.
 
 use super::{
-    Cellular, Couette, Flow, GriddedFlow, LambOseenVortex, Poiseuille, RankineVortex, Sinusoidal,
-    SolidBodyRotation, StagnationPoint, Superposition, Uniform,
+    Cellular, Couette, Flow, GriddedFlow, LambOseenVortex, MixingLayer, Poiseuille, RankineVortex,
+    Sinusoidal, SolidBodyRotation, StagnationPoint, Superposition, Uniform,
 };
 use crate::error::{Error, Result};
 use serde::{Deserialize, Serialize};
@@ -75,6 +75,25 @@ pub enum FlowSpec {
         x0: f64,
         /// Rotation of the flow direction from +x, degrees, positive = counter-clockwise on
         /// screen (default 0).
+        #[serde(default)]
+        angle_deg: f64,
+    },
+    /// Hyperbolic-tangent mixing layer between two streams, optionally rotated
+    /// ([`MixingLayer`]): `u = u1 + (u2 − u1) (1 + tanh((y − y0) / thickness)) / 2`, `v = 0`.
+    MixingLayer {
+        /// Velocity far above the centre line (smaller y, the top of the image), px/ms.
+        u1: f64,
+        /// Velocity far below the centre line (larger y), px/ms.
+        u2: f64,
+        /// y of a point on the centre line, px.
+        y0: f64,
+        /// Thickness δ of the tanh profile, px (the vorticity thickness is 2δ).
+        thickness: f64,
+        /// x of a point on the centre line, px (default 0; matters only when rotated).
+        #[serde(default)]
+        x0: f64,
+        /// Rotation of the flow direction from +x, degrees, positive = counter-clockwise on
+        /// screen (default 0; `u1` is on the left of the flow direction as seen on screen).
         #[serde(default)]
         angle_deg: f64,
     },
@@ -167,6 +186,16 @@ impl Check<'_> {
 }
 
 impl FlowSpec {
+    /// Uniform translation by (`u`, `v`) px/ms, x right and y down (`type = "uniform"`).
+    pub fn uniform(u: f64, v: f64) -> FlowSpec {
+        FlowSpec::Uniform {
+            u: Some(u),
+            v: Some(v),
+            speed: None,
+            angle_deg: None,
+        }
+    }
+
     /// The flow as a one-line TOML inline table, as in a scenario file
     /// (`{ type = "uniform", u = 2.0 }`), for file metadata.
     pub fn describe(&self) -> String {
@@ -252,6 +281,21 @@ impl FlowSpec {
                 gradient_per_ms: c.finite("gradient", gradient)?,
                 x0: c.finite("x0", x0)?,
                 y0: c.finite("y0", y0)?,
+                angle_rad: c.finite("angle_deg", angle_deg)?.to_radians(),
+            }),
+            FlowSpec::MixingLayer {
+                u1,
+                u2,
+                y0,
+                thickness,
+                x0,
+                angle_deg,
+            } => Box::new(MixingLayer {
+                u1: c.finite("u1", u1)?,
+                u2: c.finite("u2", u2)?,
+                x0: c.finite("x0", x0)?,
+                y0: c.finite("y0", y0)?,
+                thickness_px: c.positive("thickness", thickness)?,
                 angle_rad: c.finite("angle_deg", angle_deg)?.to_radians(),
             }),
             FlowSpec::Poiseuille {

@@ -65,6 +65,17 @@ fn analytic_flows() -> Vec<(&'static str, Box<dyn Flow>)> {
             }),
         ),
         (
+            "mixing_layer_rotated",
+            Box::new(MixingLayer {
+                u1: -3.0,
+                u2: 12.0,
+                x0: 150.0,
+                y0: 110.0,
+                thickness_px: 10.0,
+                angle_rad: -30f64.to_radians(),
+            }),
+        ),
+        (
             "poiseuille",
             Box::new(Poiseuille {
                 u_max: 15.0,
@@ -283,6 +294,80 @@ fn shear_and_channel_velocities_at_known_points() {
     }
     assert_eq!(channel.advect((1.0, 10.0), 0.0, 1e4), (1.0, 10.0));
     assert_eq!(channel.advect((1.0, 30.0), 0.0, 1e4), (61.0, 30.0));
+}
+
+/// The tanh profile (Michalke 1964): its values, its shear, its vorticity and momentum
+/// thicknesses (2δ and δ/2), and streamwise paths, horizontal and rotated.
+#[test]
+fn mixing_layer_follows_the_tanh_profile() {
+    let (u1, u2, delta) = (0.05, 5.0, 8.0);
+    let layer = MixingLayer::horizontal(u1, u2, 64.0, delta);
+    // u1 at the top of the image (small y), u2 at the bottom, the mean on the centre line.
+    let centre = layer.velocity(3.0, 64.0, 0.0);
+    assert!((centre.0 - 0.5 * (u1 + u2)).abs() < 1e-12);
+    // v is +0, not −0, so that files print 0.
+    assert!(
+        centre.1 == 0.0 && centre.1.is_sign_positive(),
+        "v = {}",
+        centre.1
+    );
+    let (top, bottom) = (
+        layer.velocity(0.0, -200.0, 0.0),
+        layer.velocity(0.0, 400.0, 0.0),
+    );
+    assert!((top.0 - u1).abs() < 1e-12 && top.1 == 0.0, "{top:?}");
+    assert!(
+        (bottom.0 - u2).abs() < 1e-12 && bottom.1 == 0.0,
+        "{bottom:?}"
+    );
+    let one_delta = u1 + (u2 - u1) * 0.5 * (1.0 + 1f64.tanh());
+    assert!((layer.velocity(0.0, 72.0, 0.0).0 - one_delta).abs() < 1e-12);
+    // Antisymmetric about the centre line: U(s) + U(−s) = u1 + u2.
+    for s in [0.5, 3.0, 11.0, 40.0] {
+        let sum = layer.profile(s) + layer.profile(-s);
+        assert!((sum - (u1 + u2)).abs() < 1e-12, "s {s}: {sum}");
+    }
+    // The shear: analytic against central differences, largest on the centre line.
+    let e = 1e-4;
+    for s in [-20.0, -8.0, -1.0, 0.0, 2.5, 8.0, 30.0] {
+        let numeric = (layer.profile(s + e) - layer.profile(s - e)) / (2.0 * e);
+        assert!((layer.shear_rate(s) - numeric).abs() < 1e-8, "s {s}");
+    }
+    let peak = layer.shear_rate(0.0);
+    assert!((peak - (u2 - u1) / (2.0 * delta)).abs() < 1e-15);
+    assert!(
+        ((u2 - u1) / peak - 2.0 * delta).abs() < 1e-12,
+        "vorticity thickness 2δ"
+    );
+    // Momentum thickness ∫ (U − u1)(u2 − U) / (u2 − u1)² ds = δ/2 (midpoint rule, ±20δ).
+    let ds = 1e-3;
+    let theta: f64 = (0..320_000)
+        .map(|i| {
+            let u = layer.profile(-160.0 + (i as f64 + 0.5) * ds);
+            (u - u1) * (u2 - u) / ((u2 - u1) * (u2 - u1)) * ds
+        })
+        .sum();
+    assert!(
+        (theta - 0.5 * delta).abs() < 1e-6,
+        "momentum thickness {theta}"
+    );
+    // Paths run along x at the speed of their row.
+    let p = layer.advect((10.0, 72.0), 0.0, 20_000.0);
+    assert_eq!(p.1, 72.0);
+    assert!((p.0 - 10.0 - 20.0 * one_delta).abs() < 1e-12);
+    // Rotated by 90°, the flow runs up the screen (−y) and u1 lies to its left (−x).
+    let up = MixingLayer {
+        angle_rad: 90f64.to_radians(),
+        x0: 100.0,
+        ..layer
+    };
+    let (u, v) = up.velocity(100.0, 7.0, 0.0);
+    assert!(
+        u.abs() < 1e-12 && (v + 0.5 * (u1 + u2)).abs() < 1e-12,
+        "({u}, {v})"
+    );
+    let (u, v) = up.velocity(-300.0, 7.0, 0.0);
+    assert!(u.abs() < 1e-12 && (v + u1).abs() < 1e-12, "({u}, {v})");
 }
 
 #[test]

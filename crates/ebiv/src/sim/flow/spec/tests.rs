@@ -76,6 +76,22 @@ fn every_spec() -> Vec<FlowSpec> {
             x0: 160.0,
             angle_deg: 22.3,
         },
+        FlowSpec::MixingLayer {
+            u1: 0.05,
+            u2: 5.0,
+            y0: 64.0,
+            thickness: 8.0,
+            x0: 0.0,
+            angle_deg: 0.0,
+        },
+        FlowSpec::MixingLayer {
+            u1: -2.0,
+            u2: 3.0,
+            y0: 100.0,
+            thickness: 4.0,
+            x0: 50.0,
+            angle_deg: 45.0,
+        },
         FlowSpec::Poiseuille {
             u_max: 10.0,
             y_min: 0.0,
@@ -140,6 +156,28 @@ fn flow_spec_optional_keys_and_names() {
             x0: 0.0,
             angle_deg: 0.0
         }
+    );
+    let text = "[flow]\ntype = \"mixing_layer\"\nu1 = 0.05\nu2 = 5.0\ny0 = 64.0\nthickness = 8.0";
+    let s: Scenario = toml::from_str(text).unwrap();
+    assert_eq!(
+        s.flow,
+        FlowSpec::MixingLayer {
+            u1: 0.05,
+            u2: 5.0,
+            y0: 64.0,
+            thickness: 8.0,
+            x0: 0.0,
+            angle_deg: 0.0
+        }
+    );
+    let (u, v) = s.flow.build().unwrap().velocity(0.0, 64.0, 0.0);
+    assert!((u - 2.525).abs() < 1e-12 && v == 0.0, "({u}, {v})");
+    assert_eq!(
+        FlowSpec::uniform(1.5, -2.0)
+            .build()
+            .unwrap()
+            .velocity(0.0, 0.0, 0.0),
+        (1.5, -2.0)
     );
     let s: Scenario = toml::from_str("[flow]\ntype = \"uniform\"\nspeed = 2.0").unwrap();
     let (u, v) = s.flow.build().unwrap().velocity(0.0, 0.0, 0.0);
@@ -208,6 +246,17 @@ fn flow_spec_rejects_bad_parameters_by_name() {
         angle_deg: None,
     };
     assert_eq!(parameter_name(both), "speed");
+    let layer = |thickness| FlowSpec::MixingLayer {
+        u1: 0.0,
+        u2: 1.0,
+        y0: 0.0,
+        thickness,
+        x0: 0.0,
+        angle_deg: 0.0,
+    };
+    assert_eq!(parameter_name(layer(0.0)), "thickness");
+    assert_eq!(parameter_name(layer(-1.0)), "thickness");
+    assert_eq!(parameter_name(layer(f64::INFINITY)), "thickness");
     let nested = FlowSpec::Superposition {
         flows: vec![
             FlowSpec::Stagnation {
