@@ -280,15 +280,17 @@ impl Search<'_> {
             && matches!(p.objective, Objective::Variance | Objective::SumOfSquares)
     }
 
-    /// Pair-velocity vote over `centre ± extent`, wider than the search box `centre ± half`,
-    /// then Newton ascents from every start of the vote and, where the objective there is
-    /// competitive, from the centre of the range; the highest maximum wins. A maximum outside
-    /// the box is out of range. `None` if the canvas would be unreasonably large: the grid
-    /// search decides.
+    /// Newton ascents of Σ I² from the candidates for the global maximum inside
+    /// `centre ± extent`, wider than the search box `centre ± half`: first the most trusted
+    /// start (the given one, else the predictor, else the vote's best peak), then the vote's
+    /// other peaks over the same range and zero velocity, each climbed only where its value
+    /// competes with the best maximum so far. The highest maximum wins; one outside the box
+    /// is out of range. `None` if the canvas would be unreasonably large: the grid search
+    /// decides.
     ///
     /// The objective's own evidence gives the peak ratio ([`peak_ratio`]): the winner against
-    /// the best other maximum, or the best value seen outside the winner's basin, both above
-    /// the lowest value evaluated.
+    /// the best value seen outside its basin (other maxima, candidates, two probes of the
+    /// background), both above the lowest value evaluated.
     fn newton(&self, half: f64, t_max: f64, s: &mut SearchScratch) -> Option<Outcome> {
         let p = self.params;
         let extent = half + half.max(2.0);
@@ -421,8 +423,8 @@ impl Search<'_> {
     /// Half-width of a maximum of Σ I² in velocity, px/ms: two maxima closer than this are
     /// one. A particle image of about a pixel, splatted with σ, stays within about
     /// `2σ + 1` px of itself while the velocity is off by less than that over the events'
-    /// largest time offset `t_max` (the peak's width is particle size / T, Willert & Klinner
-    /// 2022, §2.3); never below two refinement steps.
+    /// largest time offset `t_max`, so the peak is about particle size / T wide; never below
+    /// two refinement steps.
     fn basin(&self, t_max: f64) -> f64 {
         let sigma = match self.params.splat {
             Splat::Gaussian { sigma } => sigma,
