@@ -87,7 +87,8 @@ impl Seen {
 /// when neither rises above the background.
 fn peak_ratio(best: f64, rival: f64, background: f64) -> f64 {
     let (a, b) = (best - background, rival - background);
-    if !(a > 0.0) {
+    // NaN heights count as none.
+    if a.is_nan() || a <= 0.0 {
         return f64::NAN;
     }
     // A rival at the background itself: the ratio is large but finite.
@@ -353,11 +354,11 @@ impl Search<'_> {
         // Two plain evaluations twice the basin's half-width from that maximum, on either
         // side, sample the background the peak stands on.
         let mut samples = [([0.0; 2], f64::NEG_INFINITY); MAX_STARTS + 3];
-        for k in 0..2 {
-            let d = if k == 0 { PROBE } else { -PROBE } * basin * std::f64::consts::FRAC_1_SQRT_2;
+        for (sample, side) in samples.iter_mut().zip([PROBE, -PROBE]) {
+            let d = side * basin * std::f64::consts::FRAC_1_SQRT_2;
             let at = clamp([top.0[0] + d, top.0[1] + d]);
-            samples[k] = (at, self.squares(at, &canvas, s));
-            seen.add(samples[k].1);
+            *sample = (at, self.squares(at, &canvas, s));
+            seen.add(sample.1);
         }
         // The other candidates (the vote's other peaks, zero velocity): one plain evaluation
         // each, and an ascent where the value competes with the best maximum so far (a
@@ -391,7 +392,8 @@ impl Search<'_> {
             .filter(|(v, _)| !near(*v, velocity))
             .fold(f64::NEG_INFINITY, |r, m| r.max(m.1));
         let ratio = peak_ratio(squares, rival, seen.lowest);
-        if !(squares - seen.lowest > 0.0) {
+        let height = squares - seen.lowest;
+        if height.is_nan() || height <= 0.0 {
             return Some(invalid(Status::NO_PEAK, ratio));
         }
         if ratio < COMPARABLE {
