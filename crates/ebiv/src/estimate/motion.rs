@@ -271,8 +271,9 @@ pub struct ContrastMaximization {
     fine: SplatTable,
     coarse: SplatTable,
     /// Sum of correlation over the same slab, whose velocity starts the search of windows
-    /// without a predictor ([`start_estimator`]).
-    start: SumOfCorrelation,
+    /// without a predictor ([`start_estimator`]); `None` for slabs longer than sum of
+    /// correlation accepts (16 s), where the vote and zero velocity are the only starts.
+    start: Option<SumOfCorrelation>,
 }
 
 /// Per-thread working memory of [`ContrastMaximization`].
@@ -291,17 +292,20 @@ pub struct MotionScratch {
 /// velocity) beside broad false ones: where every pixel fires several times as a particle
 /// passes, or several particles pass one pixel within the slab (dense seeding, particle
 /// images of a pixel), all events of a pixel stack up at zero velocity. A vote of event
-/// pairs can miss the true maximum there (algorithms.md §4); the correlation of two
+/// pairs can miss the true maximum there; the correlation of two
 /// sub-volumes cannot, as it compares whole images rather than pairs. Its search reaches a
 /// third of the window over τ: `5 W / (3 T)`, beyond the `W / T` at which a particle
 /// crosses the window within the slab. Only a start: the velocity comes from the contrast
 /// maximum, which wins over the other starts by its objective.
+///
+/// Slabs of a few µs get fewer slices, at least 1 µs each.
 fn start_estimator(slab_us: i64) -> Result<SumOfCorrelation> {
     let tau_us = (slab_us / 5).max(1);
+    let sub_us = (slab_us - tau_us).max(1);
     SumOfCorrelation::new(CorrSumParams {
-        slab_us: (slab_us - tau_us).max(1),
+        slab_us: sub_us,
         tau_us,
-        slices: 16,
+        slices: sub_us.min(16) as u32,
         min_events: 1,
         ..CorrSumParams::default()
     })
@@ -314,7 +318,7 @@ impl ContrastMaximization {
         Ok(ContrastMaximization {
             fine: SplatTable::new(params.splat),
             coarse: SplatTable::new(Splat::Bilinear),
-            start: start_estimator(params.slab_us)?,
+            start: start_estimator(params.slab_us).ok(),
             params,
         })
     }
@@ -422,13 +426,11 @@ impl Estimator for ContrastMaximization {
         let predictor = predictor
             .map(|p| p.velocity)
             .filter(|p| p[0].is_finite() && p[1].is_finite());
-        let correlated = match predictor {
-            Some(_) => None,
-            None => {
-                let scratch = scratch
-                    .start
-                    .get_or_insert_with(|| self.start.scratch(dims));
-                let e = self.start.estimate(slab, window, t0_us, None, scratch);
+        let correlated = match (predictor, &self.start) {
+            (Some(_), _) | (None, None) => None,
+            (None, Some(start)) => {
+                let scratch = scratch.start.get_or_insert_with(|| start.scratch(dims));
+                let e = start.estimate(slab, window, t0_us, None, scratch);
                 (e.status.is_valid() && e.u.is_finite() && e.v.is_finite()).then_some([e.u, e.v])
             }
         };
@@ -493,6 +495,23 @@ impl Estimator for ContrastMaximization {
 #[cfg(test)]
 mod tests {
     use super::event_extent;
+
+    /// Every slab the parameters accept, 1 µs to 60 s, builds the estimator; up to sum of
+    /// correlation's 16 s, with its sum-of-correlation start.
+    #[test]
+    fn every_valid_slab_builds_the_estimator() {
+        for slab_us in [
+            1, 2, 5, 16, 17, 20, 99, 10_000, 16_000_000, 20_000_000, 60_000_000,
+        ] {
+            let params = super::MotionParams {
+                slab_us,
+                ..Default::default()
+            };
+            let built = super::ContrastMaximization::new(params);
+            let built = built.unwrap_or_else(|e| panic!("slab {slab_us} µs: {e}"));
+            assert_eq!(built.start.is_some(), slab_us <= 20_000_000, "{slab_us}");
+        }
+    }
 
     #[test]
     fn event_extent_covers_deformed_events_by_whole_pixels() {
