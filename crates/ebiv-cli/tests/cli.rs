@@ -857,3 +857,53 @@ fn process_writes_the_slab_of_every_vector() {
         assert!(rows.iter().any(|r| r[at("status")] == "0"), "{method}");
     }
 }
+
+/// `--slab auto` gives each window the slab its velocity asks for: the slow side of the
+/// mixing-layer example (0.05 px/ms) long slabs, the fast side (5 px/ms) short ones; the
+/// fields stay on the grid of the first pass's slab.
+#[test]
+fn process_with_auto_slabs_gives_slow_windows_long_slabs() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = |name: &str| dir.path().join(name).to_str().unwrap().to_string();
+    let out = ebiv(&[
+        "simulate",
+        "--example",
+        "mixing-layer",
+        "-o",
+        &path("layer.raw"),
+    ]);
+    assert!(out.status.success(), "{}", stderr(&out));
+    let csv = path("auto.csv");
+    let out = ebiv(&[
+        "process",
+        &path("layer.raw"),
+        "--slab",
+        "auto",
+        "--window",
+        "40",
+        "--time",
+        "200ms:200ms:1ms",
+        "-o",
+        &csv,
+    ]);
+    assert!(out.status.success(), "{}", stderr(&out));
+    let text = std::fs::read_to_string(&csv).unwrap();
+    let mut lines = text.lines();
+    let header: Vec<&str> = lines.next().unwrap().split(',').collect();
+    let at = |name: &str| header.iter().position(|&h| h == name).unwrap();
+    let rows: Vec<Vec<&str>> = lines.map(|l| l.split(',').collect()).collect();
+    let slabs = |side: fn(f64) -> bool| -> Vec<u32> {
+        rows.iter()
+            .filter(|r| r[at("status")] == "0" && side(r[at("y_px")].parse().unwrap()))
+            .map(|r| r[at("slab_us")].parse().unwrap())
+            .collect()
+    };
+    let (slow, fast) = (slabs(|y| y < 30.0), slabs(|y| y > 95.0));
+    assert!(slow.len() >= 8 && fast.len() >= 8, "{slow:?} {fast:?}");
+    assert!(slow.iter().all(|&t| t >= 128_000), "{slow:?}");
+    assert!(fast.iter().all(|&t| t <= 5_657), "{fast:?}");
+    // A slab that is neither a duration nor `auto` says what is accepted.
+    let out = ebiv(&["process", &path("layer.raw"), "--slab", "automatic"]);
+    assert!(!out.status.success());
+    assert!(stderr(&out).contains("`auto`"), "{}", stderr(&out));
+}

@@ -55,6 +55,11 @@ impl Status {
         self.0 & other.0 == other.0
     }
 
+    /// True if any flag of `other` is set in `self`.
+    pub fn intersects(self, other: Status) -> bool {
+        self.0 & other.0 != 0
+    }
+
     /// True if the vector carries a value: valid, or replaced.
     pub fn has_value(self) -> bool {
         self.0 == 0 || self.contains(Status::REPLACED)

@@ -330,6 +330,18 @@ impl Slab {
         self.end_us
     }
 
+    /// Times of the earliest and the latest event in the slab, µs; `None` if it is empty.
+    /// (Each tile is in time order, so this looks at the ends of the tiles only.)
+    pub fn event_span_us(&self) -> Option<(i64, i64)> {
+        let tiles = self.tile_start.windows(2).filter(|k| k[1] > k[0]);
+        tiles.fold(None, |span, k| {
+            let (first, last) = (self.t[k[0]], self.t[k[1] - 1]);
+            Some(span.map_or((first, last), |(a, b): (i64, i64)| {
+                (a.min(first), b.max(last))
+            }))
+        })
+    }
+
     /// Number of events in the slab.
     pub fn len(&self) -> usize {
         self.t.len()

@@ -147,6 +147,22 @@ const MAX_PEAK_SMOOTHING_PX: f64 = 5.0;
 const MAX_SLICES: u32 = 1000;
 
 impl CorrSumParams {
+    /// The same parameters for a slab of `slab_us`, with the delay τ in the same proportion
+    /// to the slab (an adaptive slab, [`crate::estimate::adaptive`]), and at least one slice
+    /// long so that paired slices never share events.
+    pub fn with_slab(self, slab_us: i64) -> Self {
+        let ratio = self.tau_us as f64 / self.slab_us.max(1) as f64;
+        let slice_us = (slab_us + self.slices as i64 - 1) / self.slices.max(1) as i64;
+        let tau_us = ((slab_us as f64 * ratio).round() as i64)
+            .max(slice_us)
+            .min(slab_us);
+        CorrSumParams {
+            slab_us,
+            tau_us,
+            ..self
+        }
+    }
+
     /// Reject parameters that cannot give a meaningful correlation.
     pub fn validate(&self) -> Result<()> {
         let (t, tau, n) = (self.slab_us, self.tau_us, self.slices);

@@ -6,6 +6,7 @@
 //! optional predictor (from a previous pass), and return one velocity with its status and
 //! quality measures. Shared kernels: sub-pixel peak fits ([`peak`]).
 
+pub mod adaptive;
 pub mod corrsum;
 pub mod motion;
 pub use crate::peak;
@@ -100,6 +101,13 @@ pub trait Estimator: Sync {
     /// Events needed around a field time t0: `[t0 − before, t0 + after)`, as `(before,
     /// after)` in µs.
     fn time_extent_us(&self) -> (i64, i64);
+
+    /// The extent of [`Estimator::time_extent_us`] that a field needs to be measured: field
+    /// times are planned so that it lies within the recording. The same, except for an
+    /// estimator whose slab varies per window ([`adaptive::AdaptiveSlab`]: its first pass's).
+    fn planning_extent_us(&self) -> (i64, i64) {
+        self.time_extent_us()
+    }
 
     /// Estimate the velocity of the events of `window` around time `t0_us`. `predictor` is
     /// what a previous pass expects there; without it the estimator searches its default

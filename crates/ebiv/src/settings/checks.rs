@@ -1,7 +1,7 @@
 //! Range checks of single settings, run wherever a value is set; the caller adds the key to
 //! the message. Checks of one setting against another are in [`super::resolve`].
 
-use super::value::{Duration, PixelList};
+use super::value::{Duration, PixelList, SlabLength};
 
 type Check = Result<(), String>;
 
@@ -45,6 +45,13 @@ pub fn positive_duration(v: &impl Each<Duration>) -> Check {
         Some(d) if d.0 <= 0 => Err(format!("{} µs: must be longer than 0", d.0)),
         Some(d) if d.0 > 3_600_000_000 => Err(format!("{} µs: must be at most an hour", d.0)),
         _ => Ok(()),
+    }
+}
+
+pub fn positive_slab(v: &SlabLength) -> Check {
+    match v {
+        SlabLength::Fixed(d) => positive_duration(d),
+        SlabLength::Auto => Ok(()),
     }
 }
 

@@ -15,9 +15,9 @@ mod table;
 mod value;
 
 pub use crate::process::FieldTimes;
-pub use resolve::{Resolved, Source};
+pub use resolve::{EstimatorTask, Resolved, Source};
 pub use table::{find, template, Setting};
-pub use value::{Duration, Kind, PixelList, Point, SettingValue, TextList};
+pub use value::{Duration, Kind, PixelList, Point, SettingValue, SlabLength, TextList};
 
 use crate::estimate::corrsum::{CorrKernel, Weighting};
 use crate::estimate::motion::{Objective, SearchMethod};
@@ -108,8 +108,10 @@ settings! {
         /// (cross-correlation PIV of frames rebuilt from the events, or of `images`) or pulsed
         /// (PIV of one frame per light pulse, pulse timing detected).
         method: Method = Method::CorrSum; "METHOD";
-        /// Time slab T of one field (corrsum, motion).
-        slab: Duration = Duration::ms(10); "DUR", check positive_duration;
+        /// Time slab T of one field (corrsum, motion), or auto: each window's slab chosen
+        /// from its velocity so that its particles move about `slab-displacement` px in it,
+        /// between `slab-min` and `slab-max` (every vector records its slab, `slab_us`).
+        slab: SlabLength = SlabLength::Fixed(Duration::ms(10)); "DUR|auto", check positive_slab;
         /// Field centre times START:END:STEP (END inclusive), from the first event, e.g.
         /// 60ms:60ms:1ms for one field at 60 ms; START or END may be left out (::5ms).
         /// Default: every field that fits in the recording, one per slab.
@@ -118,6 +120,19 @@ settings! {
         absolute_time: bool = false; "";
         /// Events used: pos, neg or both (pos, as in the EBIV paper).
         polarity: PolaritySelection = PolaritySelection::Positive; "POL";
+    }
+    group "Adaptive slab (slab = auto)" {
+        /// Shortest slab: the sensor's latency or longer (an event camera's pixels respond
+        /// within about 0.1–1 ms, longer in dim light), and long enough to hold events.
+        slab_min: Duration = Duration::ms(1); "DUR", check positive_duration;
+        /// Longest slab: how long a slow flow may be assumed steady.
+        slab_max: Duration = Duration::ms(200); "DUR", check positive_duration;
+        /// Slab of the first pass, whose velocities choose the slabs of the later passes;
+        /// also the default step between fields.
+        slab_probe: Duration = Duration::ms(10); "DUR", check positive_duration;
+        /// Displacement |v|·T over the slab, px, that the choice aims at from below
+        /// (sum of correlation's delay τ scales with the slab, in the ratio tau/slab-probe).
+        slab_displacement: f64 = 20.0; "PX", check positive;
     }
     group "Interrogation windows and passes" {
         /// Window size in px, one per pass, largest first (e.g. 40 or 64,40); the first

@@ -2,10 +2,12 @@
 //! engine: the defaults that depend on the method are filled in, and settings are checked
 //! against each other.
 
-use super::ProcessSettings;
+use super::{ProcessSettings, SlabLength};
 use crate::error::{Error, Result};
-use crate::estimate::corrsum::CorrSumParams;
-use crate::estimate::motion::MotionParams;
+use crate::estimate::adaptive::{AdaptiveSlab, AdaptiveSlabParams};
+use crate::estimate::corrsum::{CorrSumParams, SumOfCorrelation};
+use crate::estimate::motion::{ContrastMaximization, MotionParams};
+use crate::estimate::Estimator;
 use crate::event::Geometry;
 use crate::field::Calibration;
 use crate::frame::events::FrameSpec;
@@ -45,10 +47,14 @@ pub struct Resolved {
     pub source: Source,
     /// The estimator.
     pub method: Method,
-    /// Sum of correlation's parameters.
+    /// Sum of correlation's parameters (with `slab = auto`, those of the first pass's slab;
+    /// [`CorrSumParams::with_slab`] gives the others).
     pub corrsum: CorrSumParams,
-    /// Motion compensation's parameters.
+    /// Motion compensation's parameters (with `slab = auto`, those of the first pass's
+    /// slab).
     pub motion: MotionParams,
+    /// With `slab = auto`: the bounds and target of the slab of each window.
+    pub adaptive: Option<AdaptiveSlabParams>,
     /// The multi-pass engine's parameters for the event methods (the mask is loaded when
     /// the sensor size is known).
     pub process: ProcessParams,
@@ -120,12 +126,49 @@ impl Resolved {
             .transpose()
     }
 
-    /// The slab T of the event methods, µs.
+    /// The slab T of the event methods (with `slab = auto`: of the first pass), µs; the
+    /// default step between fields.
     pub fn slab_us(&self) -> i64 {
         match self.method {
             Method::Motion => self.motion.slab_us,
             _ => self.corrsum.slab_us,
         }
+    }
+}
+
+/// Work to do with the event estimator of a run, whatever its type: see
+/// [`Resolved::with_event_estimator`].
+pub trait EstimatorTask {
+    /// What the work returns.
+    type Output;
+    /// Do the work with `estimator`.
+    fn run<E: Estimator>(self, estimator: &E) -> Self::Output;
+}
+
+impl Resolved {
+    /// Build the run's event estimator (sum of correlation or motion compensation, over one
+    /// slab or, with `slab = auto`, a slab per window) and hand it to `task`. An error for
+    /// the other methods, or parameters an estimator rejects.
+    pub fn with_event_estimator<T: EstimatorTask>(&self, task: T) -> Result<T::Output> {
+        let corrsum = |slab_us| SumOfCorrelation::new(self.corrsum.with_slab(slab_us));
+        let motion = |slab_us| {
+            ContrastMaximization::new(MotionParams {
+                slab_us,
+                ..self.motion.clone()
+            })
+        };
+        Ok(match (self.method, self.adaptive) {
+            (Method::CorrSum, None) => task.run(&SumOfCorrelation::new(self.corrsum)?),
+            (Method::CorrSum, Some(a)) => task.run(&AdaptiveSlab::new(a, corrsum)?),
+            (Method::Motion, None) => task.run(&ContrastMaximization::new(self.motion.clone())?),
+            (Method::Motion, Some(a)) => task.run(&AdaptiveSlab::new(a, motion)?),
+            (Method::Piv | Method::Pulsed, _) => {
+                return Err(Error::parameter(
+                    "method",
+                    "piv and pulsed measure frames, not with an event estimator",
+                ))
+            }
+        })
     }
 }
 
@@ -164,8 +207,22 @@ impl ProcessSettings {
         };
         validation.check()?;
 
+        let slab_us = self.slab.first_pass_us(self.slab_probe);
+        let adaptive = match self.slab {
+            SlabLength::Fixed(_) => None,
+            SlabLength::Auto => {
+                let adaptive = AdaptiveSlabParams {
+                    min_us: self.slab_min.0,
+                    max_us: self.slab_max.0,
+                    probe_us: self.slab_probe.0,
+                    displacement_px: self.slab_displacement,
+                };
+                adaptive.validate()?;
+                Some(adaptive)
+            }
+        };
         let mut corrsum = CorrSumParams {
-            slab_us: self.slab.0,
+            slab_us,
             tau_us: self.tau.0,
             slices: self.slices,
             kernel: self.kernel,
@@ -177,7 +234,7 @@ impl ProcessSettings {
             ..CorrSumParams::default()
         };
         let mut motion = MotionParams {
-            slab_us: self.slab.0,
+            slab_us,
             objective: self.objective,
             search_range: self.search_range,
             coarse_step: self.coarse_step,
@@ -255,6 +312,7 @@ impl ProcessSettings {
             method,
             corrsum,
             motion,
+            adaptive,
             process,
             piv,
             frames,
@@ -352,6 +410,21 @@ mod tests {
         assert!(e.to_string().contains("`images`"), "{e}");
         // A method's own checks only apply to that method.
         assert!(with(&[("method", "piv"), ("tau", "20ms")]).is_ok());
+    }
+
+    #[test]
+    fn an_auto_slab_resolves_its_bounds_and_checks_them() {
+        let r = with(&[("slab", "auto"), ("slab-max", "100ms")]).unwrap();
+        let adaptive = r.adaptive.unwrap();
+        assert_eq!((adaptive.min_us, adaptive.max_us), (1_000, 100_000));
+        assert_eq!(
+            r.slab_us(),
+            10_000,
+            "the first pass's slab, and the field step"
+        );
+        assert!(with(&[("slab", "10ms")]).unwrap().adaptive.is_none());
+        let e = with(&[("slab", "auto"), ("slab-probe", "1s")]).unwrap_err();
+        assert!(e.to_string().contains("`slab-probe`"), "{e}");
     }
 
     #[test]

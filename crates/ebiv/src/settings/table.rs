@@ -304,6 +304,7 @@ fn wrap(text: &str, width: usize) -> Vec<String> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::settings::{Duration, SlabLength};
 
     #[test]
     fn the_template_parses_to_the_defaults() {
@@ -334,7 +335,7 @@ mod tests {
         assert_eq!(s.median_threshold, 3.0);
         assert_eq!(s.min_events, 5);
         assert_eq!(s.tau.0, 2000);
-        assert_eq!(s.slab.0, 8000);
+        assert_eq!(s.slab, SlabLength::Fixed(Duration(8000)));
         assert_eq!(s.coarse_step, 0.5);
         assert_eq!(warnings.len(), 5);
         assert!(

@@ -177,6 +177,53 @@ impl SettingValue for Duration {
     }
 }
 
+/// The time slab of the event methods: one duration for every window, or `auto`, a slab
+/// per window chosen from its velocity ([`crate::estimate::adaptive`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum SlabLength {
+    /// The same slab everywhere.
+    Fixed(Duration),
+    /// A slab per window.
+    Auto,
+}
+
+impl SlabLength {
+    /// The fixed slab, or `auto_first` (the first pass's slab of `auto`), µs.
+    pub fn first_pass_us(self, auto_first: Duration) -> i64 {
+        match self {
+            SlabLength::Fixed(d) => d.0,
+            SlabLength::Auto => auto_first.0,
+        }
+    }
+}
+
+impl SettingValue for SlabLength {
+    fn from_text(text: &str) -> Result<Self, String> {
+        if text.trim() == "auto" {
+            return Ok(SlabLength::Auto);
+        }
+        Duration::from_text(text)
+            .map(SlabLength::Fixed)
+            .map_err(|e| format!("{e}; or `auto` for a slab per window"))
+    }
+
+    fn from_toml(value: &Value) -> Result<Self, String> {
+        match value {
+            Value::String(s) => Self::from_text(s),
+            other => Duration::from_toml(other)
+                .map(SlabLength::Fixed)
+                .map_err(|e| format!("{e}, or \"auto\"")),
+        }
+    }
+
+    fn to_toml(&self) -> Option<Value> {
+        match self {
+            SlabLength::Fixed(d) => d.to_toml(),
+            SlabLength::Auto => Some(Value::String("auto".into())),
+        }
+    }
+}
+
 /// Window sizes or steps in px, one per pass: `40`, `64,40` or `[64, 40]`.
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub struct PixelList(pub Vec<u32>);

@@ -4,18 +4,31 @@ use super::figures::{describe_passes, finish_recording_run, write_series_figures
 use ebiv::estimate::Estimator;
 use ebiv::io::ReadOptions;
 use ebiv::process::{process_recording, PlannedFields};
-use ebiv::settings::Resolved;
+use ebiv::settings::{EstimatorTask, Resolved};
 use ebiv::Error;
 use std::time::Instant;
 
+/// A run of an event estimator over a recording ([`Resolved::with_event_estimator`]).
+pub struct Run<'a> {
+    pub run: &'a Resolved,
+    pub options: &'a ReadOptions,
+}
+
+impl EstimatorTask for Run<'_> {
+    type Output = Result<(), Error>;
+    fn run<E: Estimator>(self, estimator: &E) -> Self::Output {
+        run_estimator(self.run, self.options, estimator)
+    }
+}
+
 /// Stream the recording through `estimator`, write the series and the figures.
-pub fn run_estimator<E: Estimator>(
+fn run_estimator<E: Estimator>(
     run: &Resolved,
     options: &ReadOptions,
     estimator: &E,
 ) -> Result<(), Error> {
     let input = run.input_path();
-    let planned = run.plan_fields(options, estimator.time_extent_us(), run.slab_us())?;
+    let planned = run.plan_fields(options, estimator.planning_extent_us(), run.slab_us())?;
     crate::interrupt::check(&run.output)?;
     let described = planned.describe_times();
     let PlannedFields {
@@ -37,7 +50,7 @@ pub fn run_estimator<E: Estimator>(
         std::fs::create_dir_all(dir).map_err(|e| Error::io(dir, e))?;
     }
     let started = Instant::now();
-    let mut progress = FieldProgress::new(run, g, times.len(), estimator.time_extent_us());
+    let mut progress = FieldProgress::new(run, g, times.len(), estimator.planning_extent_us());
     let (mut series, summary) =
         process_recording(&mut reader, g, estimator, &params, &times, &mut |d| {
             progress.on_field(d)?;

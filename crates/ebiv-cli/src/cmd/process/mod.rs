@@ -52,16 +52,10 @@ pub fn run(args: &ProcessArgs) -> Result<(), ebiv::Error> {
     // (it is written whole at the end, or not at all), and every figure on disk is complete.
     let _catch = crate::interrupt::catch();
     match (run.method, &run.source) {
-        (Method::CorrSum, _) => events::run_estimator(
-            &run,
-            &options,
-            &ebiv::estimate::corrsum::SumOfCorrelation::new(run.corrsum)?,
-        ),
-        (Method::Motion, _) => events::run_estimator(
-            &run,
-            &options,
-            &ebiv::estimate::motion::ContrastMaximization::new(run.motion.clone())?,
-        ),
+        (Method::CorrSum | Method::Motion, _) => run.with_event_estimator(events::Run {
+            run: &run,
+            options: &options,
+        })?,
         (Method::Piv, Source::Images(_)) => piv::run_images(&run),
         (Method::Piv | Method::Pulsed, _) => piv::run_events(&run, &options),
     }
