@@ -22,7 +22,8 @@ mod cells;
 mod report;
 
 pub use cells::{
-    gross_limit, Cell, CellStats, EnvelopeResults, FAIL_SHARE, GROSS_ABSOLUTE, GROSS_RELATIVE,
+    gross_limit, Cell, CellStats, EnvelopeResults, ValidVector, FAIL_SHARE, GROSS_ABSOLUTE,
+    GROSS_RELATIVE,
 };
 
 use crate::error::{Error, Result};
@@ -315,8 +316,8 @@ impl RunSetting {
 
 /// A setting ready to run: its estimator and multi-pass parameters.
 enum Prepared {
-    CorrSum(SumOfCorrelation, ProcessParams),
-    Motion(ContrastMaximization, ProcessParams),
+    CorrSum(Box<SumOfCorrelation>, ProcessParams),
+    Motion(Box<ContrastMaximization>, ProcessParams),
 }
 
 impl Prepared {
@@ -325,17 +326,34 @@ impl Prepared {
         let run = setting.resolve()?;
         match run.method {
             Method::CorrSum => Ok(Prepared::CorrSum(
-                SumOfCorrelation::new(run.corrsum)?,
+                Box::new(SumOfCorrelation::new(run.corrsum)?),
                 run.process,
             )),
             Method::Motion => Ok(Prepared::Motion(
-                ContrastMaximization::new(run.motion)?,
+                Box::new(ContrastMaximization::new(run.motion)?),
                 run.process,
             )),
             _ => Err(Error::parameter(
                 "methods",
                 "the study compares the event estimators corrsum and motion",
             )),
+        }
+    }
+
+    /// The delay over which a vector of a slab of `slab_us` µs claims its displacement, ms:
+    /// sum of correlation's τ (in proportion to the slab where the slab is not the one
+    /// configured), motion compensation's whole slab.
+    fn delay_ms(&self, slab_us: u32) -> f64 {
+        match self {
+            Prepared::CorrSum(e, _) => {
+                let p = e.params();
+                let scale = match slab_us {
+                    0 => 1.0,
+                    t => f64::from(t) / p.slab_us as f64,
+                };
+                p.tau_us as f64 * scale / 1000.0
+            }
+            Prepared::Motion(..) => f64::from(slab_us) / 1000.0,
         }
     }
 
@@ -348,9 +366,11 @@ impl Prepared {
     ) -> Result<FieldSeries> {
         match self {
             Prepared::CorrSum(e, params) => {
-                process_fields(e, params, events, geometry, duration_us)
+                process_fields(e.as_ref(), params, events, geometry, duration_us)
             }
-            Prepared::Motion(e, params) => process_fields(e, params, events, geometry, duration_us),
+            Prepared::Motion(e, params) => {
+                process_fields(e.as_ref(), params, events, geometry, duration_us)
+            }
         }
     }
 }
@@ -435,6 +455,17 @@ pub fn run_study(
     spec: &EnvelopeSpec,
     on_step: &mut dyn FnMut(Step) -> Result<()>,
 ) -> Result<EnvelopeResults> {
+    run_study_with_vectors(spec, on_step, &mut |_| {})
+}
+
+/// [`run_study`], handing every valid vector of every run to `on_vector` with its cell,
+/// seed, evidence and error ([`ValidVector`]), so that validation thresholds can be chosen
+/// from what separates the gross errors from the rest.
+pub fn run_study_with_vectors(
+    spec: &EnvelopeSpec,
+    on_step: &mut dyn FnMut(Step) -> Result<()>,
+    on_vector: &mut dyn FnMut(&ValidVector),
+) -> Result<EnvelopeResults> {
     spec.validate()?;
     let settings = spec.settings();
     let prepared: Vec<std::result::Result<Prepared, String>> = settings
@@ -467,15 +498,18 @@ pub fn run_study(
                     seed,
                     events: events.len(),
                 })?;
-                for (p, tally) in prepared.iter().zip(&mut tallies) {
+                for ((p, tally), setting) in prepared.iter().zip(&mut tallies).zip(&settings) {
                     let (Ok(p), Ok(t)) = (p, &mut *tally) else {
                         continue;
                     };
                     let started = std::time::Instant::now();
                     match p.process(&events, sim.geometry, duration_us) {
                         Ok(series) => {
-                            t.add(&series, truth);
                             t.seconds += started.elapsed().as_secs_f64();
+                            t.add(&series, truth);
+                            let cell = (setting, speed, density, seed);
+                            ValidVector::each(&series, truth, cell, |slab_us| p.delay_ms(slab_us))
+                                .for_each(|v| on_vector(&v));
                         }
                         Err(e) => *tally = Err(e.to_string()),
                     }

@@ -2,7 +2,9 @@
 //! ([`ebiv::assess::envelope`]), with progress on standard error and the report on standard
 //! output.
 
-use ebiv::assess::envelope::{run_study, EnvelopeSpec, PassSchedule, Step};
+use ebiv::assess::envelope::{
+    run_study_with_vectors, EnvelopeSpec, PassSchedule, Step, ValidVector,
+};
 use std::path::PathBuf;
 use std::time::Instant;
 
@@ -38,6 +40,11 @@ pub struct EnvelopeBenchArgs {
     /// Also write every cell's figures to FILE as CSV.
     #[arg(long, value_name = "FILE")]
     pub csv: Option<PathBuf>,
+    /// Also write every valid vector to FILE as CSV: its cell, seed, position, velocity,
+    /// peak, peak ratio, events, slab, the displacement it claims (|v|·τ for corrsum, |v|·T
+    /// for motion, px), its error and whether it is a gross error.
+    #[arg(long, value_name = "FILE")]
+    pub vectors: Option<PathBuf>,
 }
 
 fn parse_passes(text: &str) -> Result<PassSchedule, String> {
@@ -56,7 +63,7 @@ pub fn run(args: &EnvelopeBenchArgs) -> Result<(), ebiv::Error> {
         size: args.size,
     };
     spec.validate()?;
-    if let Some(path) = &args.csv {
+    for path in [&args.csv, &args.vectors].into_iter().flatten() {
         crate::cmd::check_output_path(path)?;
     }
     // Ctrl-C stops the study after the run in progress; nothing is printed or written.
@@ -65,8 +72,19 @@ pub fn run(args: &EnvelopeBenchArgs) -> Result<(), ebiv::Error> {
     let started = Instant::now();
     let bar = crate::progress::count_bar(0, "runs");
     bar.set_message("envelope");
-    let results = run_study(&spec, &mut |step| {
-        match step {
+    let mut vectors = args
+        .vectors
+        .as_ref()
+        .map(|_| String::from(ValidVector::CSV_HEADER));
+    let mut on_vector = |v: &ValidVector| {
+        if let Some(text) = vectors.as_mut() {
+            text.push_str(&v.csv_row());
+        }
+    };
+    let results = run_study_with_vectors(
+        &spec,
+        &mut |step| {
+            match step {
             Step::Simulated {
                 index,
                 total,
@@ -85,8 +103,10 @@ pub fn run(args: &EnvelopeBenchArgs) -> Result<(), ebiv::Error> {
                 bar.set_position(done as u64);
             }
         }
-        crate::interrupt::check(&stop_path)
-    })?;
+            crate::interrupt::check(&stop_path)
+        },
+        &mut on_vector,
+    )?;
     bar.finish_and_clear();
     let runs = results
         .cells
@@ -103,6 +123,10 @@ pub fn run(args: &EnvelopeBenchArgs) -> Result<(), ebiv::Error> {
     print!("{}", results.markdown());
     if let Some(path) = &args.csv {
         ebiv::export::write_text(path, &results.csv())?;
+        eprintln!("wrote {}", path.display());
+    }
+    if let (Some(path), Some(text)) = (&args.vectors, &vectors) {
+        ebiv::export::write_text(path, text)?;
         eprintln!("wrote {}", path.display());
     }
     Ok(())

@@ -70,6 +70,85 @@ impl Tally {
     }
 }
 
+/// One valid vector of the study, with its cell and the evidence it rests on.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ValidVector {
+    /// The setting of its run.
+    pub setting: RunSetting,
+    /// Flow speed, px/ms.
+    pub speed: f64,
+    /// Seeding density, particles per pixel.
+    pub density: f64,
+    /// Simulation seed.
+    pub seed: u64,
+    /// Field time, µs.
+    pub t_us: i64,
+    /// Window centre, px.
+    pub x: f64,
+    /// Window centre, px.
+    pub y: f64,
+    /// Measured velocity, px/ms.
+    pub u: f64,
+    /// Measured velocity, px/ms.
+    pub v: f64,
+    /// The estimator's peak value.
+    pub peak: f32,
+    /// First-to-second peak ratio (NaN where not defined).
+    pub peak_ratio: f32,
+    /// Events the estimate is based on.
+    pub event_count: u32,
+    /// Slab T of the vector, µs.
+    pub slab_us: u32,
+    /// The displacement the vector claims, px: |v|·τ for sum of correlation, |v|·T for
+    /// motion compensation.
+    pub displacement_px: f64,
+    /// End-point error, px/ms.
+    pub error: f64,
+    /// Whether the error exceeds [`gross_limit`].
+    pub gross: bool,
+}
+
+impl ValidVector {
+    /// The valid vectors of `series`, measured on a flow of velocity `truth` px/ms in the cell
+    /// `(setting, speed, density, seed)`; `delay_ms` gives the time over which a vector of a
+    /// slab of so many µs claims its displacement.
+    pub(super) fn each<'a>(
+        series: &'a FieldSeries,
+        truth: [f64; 2],
+        (setting, speed, density, seed): (&'a RunSetting, f64, f64, u64),
+        delay_ms: impl Fn(u32) -> f64 + 'a,
+    ) -> impl Iterator<Item = ValidVector> + 'a {
+        let limit = gross_limit(truth[0].hypot(truth[1]));
+        let per_field = series.x.len() * series.y.len();
+        (0..series.u.len()).filter_map(move |i| {
+            let (u, v) = (f64::from(series.u[i]), f64::from(series.v[i]));
+            if !series.status[i].is_valid() || !u.is_finite() || !v.is_finite() {
+                return None;
+            }
+            let within = i % per_field.max(1);
+            let error = (u - truth[0]).hypot(v - truth[1]);
+            Some(ValidVector {
+                setting: setting.clone(),
+                speed,
+                density,
+                seed,
+                t_us: series.t_us[i / per_field.max(1)],
+                x: series.x[within % series.x.len()],
+                y: series.y[within / series.x.len()],
+                u,
+                v,
+                peak: series.peak[i],
+                peak_ratio: series.peak_ratio[i],
+                event_count: series.event_count[i],
+                slab_us: series.slab_us[i],
+                displacement_px: u.hypot(v) * delay_ms(series.slab_us[i]),
+                error,
+                gross: error > limit,
+            })
+        })
+    }
+}
+
 /// What one cell measured, pooled over its seeds and fields.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct CellStats {

@@ -1,7 +1,7 @@
 //! The envelope study's results as Markdown tables and as CSV.
 
 use super::{
-    Cell, CellStats, EnvelopeResults, PassSchedule, RunSetting, FIELDS_PER_RECORDING,
+    Cell, CellStats, EnvelopeResults, PassSchedule, RunSetting, ValidVector, FIELDS_PER_RECORDING,
     FLOW_ANGLE_DEG, GROSS_ABSOLUTE, GROSS_RELATIVE, PARTICLE_DIAMETER_PX, SENSOR_PRESET,
 };
 use std::fmt::Write;
@@ -196,6 +196,42 @@ fn rms_text(rms: f64) -> String {
 }
 
 /// A CSV number: empty when not defined.
+impl ValidVector {
+    /// The header of [`ValidVector::csv_row`], with its line end.
+    pub const CSV_HEADER: &'static str =
+        "method,passes,window_px,slab,speed_px_per_ms,density_per_px,seed,t_us,x_px,y_px,\
+         u_px_per_ms,v_px_per_ms,peak,peak_ratio,event_count,slab_us,displacement_px,\
+         error_px_per_ms,gross\n";
+
+    /// The vector as one CSV line, with its line end: its cell, seed, field time and
+    /// position, velocity, evidence, claimed displacement, error and whether it is gross.
+    pub fn csv_row(&self) -> String {
+        let s = &self.setting;
+        format!(
+            "{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{}\n",
+            s.method,
+            s.passes,
+            s.window,
+            s.slab,
+            self.speed,
+            self.density,
+            self.seed,
+            self.t_us,
+            self.x,
+            self.y,
+            number(self.u),
+            number(self.v),
+            number(f64::from(self.peak)),
+            number(f64::from(self.peak_ratio)),
+            self.event_count,
+            self.slab_us,
+            number(self.displacement_px),
+            number(self.error),
+            self.gross
+        )
+    }
+}
+
 fn number(x: f64) -> String {
     if x.is_finite() {
         format!("{x:.6}")
