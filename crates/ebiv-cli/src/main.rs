@@ -48,7 +48,7 @@ enum Command {
     Init(cmd::process::InitArgs),
     /// Simulate a recording of a known flow through an event-camera model, with ground truth.
     Simulate(cmd::simulate::SimulateArgs),
-    /// Measure throughput on this machine.
+    /// Measure throughput on this machine, and the event estimators' operating envelope.
     Bench(cmd::bench::BenchArgs),
 }
 

@@ -23,6 +23,7 @@ const PAGES: [(&[&str], &str, Option<&str>); 9] = [
             "bench simulate",
             "bench process",
             "bench piv",
+            "bench envelope",
         ],
         "performance.md",
         Some("## Running the benchmarks"),

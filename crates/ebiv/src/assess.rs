@@ -4,6 +4,11 @@
 //! (mean error) and random error (standard deviation), RMS of the end-point error, mean
 //! end-point error (AEE), share of valid vectors, and the dynamic velocity range
 //! DVR = max |v_true| / RMS error (Adrian 1997, Meas. Sci. Technol. 8:1393).
+//!
+//! [`envelope`] is the operating-envelope study of the two event estimators on simulated
+//! uniform flows (`ebiv bench envelope`).
+
+pub mod envelope;
 
 use crate::field::FieldSeries;
 

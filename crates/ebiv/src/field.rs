@@ -17,9 +17,13 @@ impl Status {
     pub const VALID: Status = Status(0);
     /// The window held no events (or too few to estimate anything).
     pub const NO_EVENTS: Status = Status(1);
-    /// Fewer events than the configured minimum.
+    /// Fewer events than the configured minimum, or (sum of correlation) too few coincident
+    /// voxel pairs behind the correlation peak to call it a measurement.
     pub const FEW_EVENTS: Status = Status(2);
-    /// Correlation peak ratio (first/second peak) below the configured minimum.
+    /// Correlation peak ratio (first/second peak) below the configured minimum, or a peak that
+    /// does not stand clear of its objective: two comparable maxima (motion compensation), a
+    /// peak of little contrast over its plane or missing from the plane of one half of the
+    /// slices (sum of correlation).
     pub const LOW_PEAK_RATIO: Status = Status(4);
     /// Rejected by the normalized median test (Westerweel & Scarano 2005).
     pub const MEDIAN_TEST: Status = Status(8);

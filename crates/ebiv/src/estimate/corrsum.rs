@@ -15,6 +15,9 @@
 //! Image Velocimetry", 3rd ed., 2018, §5.3: no bias toward zero displacement), each slice is
 //! normalised by its own standard deviations so the summed plane, averaged over the slices
 //! with data, reads as a correlation coefficient; empty windows are NaN with a status, a
+//! peak without enough evidence of its own is flagged (too few coincident voxel pairs behind
+//! it, too little contrast over the plane, or absent from the plane of one half of the
+//! slices: [`MIN_PEAK_PAIRS`], [`MIN_PEAK_CONTRAST`], [`MIN_HALF_CONSISTENCY`]), a
 //! predictor gives a symmetric discrete window offset (Westerweel, Dabiri & Gharib 1997,
 //! Exp. Fluids 23:20), and the peak ratio is reported. Two kernels compute the same plane: a
 //! direct sum over voxel pairs (fast for the sparse windows typical of EBIV) and an FFT path
@@ -380,25 +383,145 @@ impl SumOfCorrelation {
                 direct_is_slower(pairs, scratch.stats.len(), shape)
             }
         };
-        let best = if use_fft {
-            let fourier = scratch.fourier.get_or_insert_with(|| Fourier::new(shape));
-            fourier.correlate(a, b, &scratch.stats, &scratch.overlap, &mut scratch.plane);
-            let width = shape.plane_width();
-            scratch.accumulators.find_row_maxima(&scratch.plane, width);
-            argmax(&scratch.plane)
+        // The plane of each half of the slices with data (earlier and later), combined into
+        // the plane of all of them in proportion to their slices: the halves are the
+        // evidence test of [`SumOfCorrelation::consistent`].
+        let n = scratch.stats.len();
+        let k = n / 2;
+        let parts: [std::ops::Range<usize>; 2] = if k == 0 { [0..n, n..n] } else { [0..k, k..n] };
+        for (h, part) in parts.iter().enumerate() {
+            if part.is_empty() {
+                continue;
+            }
+            let stats = &scratch.stats[part.clone()];
+            let out = &mut scratch.halves[h];
+            if use_fft {
+                let fourier = scratch.fourier.get_or_insert_with(|| Fourier::new(shape));
+                fourier.correlate(a, b, stats, &scratch.overlap, out);
+            } else {
+                direct::correlate(
+                    a,
+                    b,
+                    stats,
+                    shape,
+                    &scratch.overlap,
+                    out,
+                    &mut scratch.accumulators,
+                );
+            }
+        }
+        scratch.split = k > 0;
+        if k == 0 {
+            scratch.plane.copy_from_slice(&scratch.halves[0]);
         } else {
-            direct::correlate(
-                a,
-                b,
-                &scratch.stats,
-                shape,
-                &scratch.overlap,
-                &mut scratch.plane,
-                &mut scratch.accumulators,
-            )
-        };
+            let (w0, w1) = (k as f64 / n as f64, (n - k) as f64 / n as f64);
+            for ((p, &x0), &x1) in scratch
+                .plane
+                .iter_mut()
+                .zip(&scratch.halves[0])
+                .zip(&scratch.halves[1])
+            {
+                *p = w0 * x0 + w1 * x1;
+            }
+        }
+        let width = shape.plane_width();
+        scratch.accumulators.find_row_maxima(&scratch.plane, width);
+        let best = argmax(&scratch.plane);
         Ok((events, best))
     }
+}
+
+/// What supports a correlation peak beyond its height and ratio: the pairs of coincident
+/// voxels behind it, its height over the plane's fluctuations, and whether the earlier and
+/// the later half of the slices both show it ([`MIN_PEAK_PAIRS`], [`MIN_PEAK_CONTRAST`],
+/// [`MIN_HALF_CONSISTENCY`]).
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct Evidence {
+    /// Coincident voxel pairs the peak stands for, about: its correlation coefficient times
+    /// the events per sub-volume times the overlap of the two windows at its lag (a share of
+    /// the window). For sparse binary occupancy images a coefficient `r` at a lag means
+    /// about `r·√(n₁n₂)` coinciding voxels, `n` the voxels of the overlapping parts.
+    pairs: f64,
+    /// Height of the peak over the plane's mean, in standard deviations of the plane.
+    contrast: f64,
+    /// The smaller of the two halves' [`consistency`].
+    halves: f64,
+}
+
+/// Fewest coincident voxel pairs behind a valid peak (peak coefficient × events per
+/// sub-volume × overlap share of the windows at the peak's lag); fewer: [`Status::FEW_EVENTS`].
+/// A peak of a handful of chance coincidences is what a window gives when its particles move
+/// less than a pixel over the slab or its events are few.
+pub const MIN_PEAK_PAIRS: f64 = 12.0;
+/// Smallest height of a valid peak over the plane's mean, in standard deviations of the
+/// plane; lower: [`Status::LOW_PEAK_RATIO`]. A displacement beyond the search radius leaves a
+/// plane of ridges of unrelated particle streaks, whose highest point stands out little.
+pub const MIN_PEAK_CONTRAST: f64 = 5.0;
+/// Smallest share of its own maximum that the plane of the earlier half of the slices, and
+/// that of the later half, reach within one pixel of a valid peak; lower:
+/// [`Status::LOW_PEAK_RATIO`]. A true displacement shows in both halves of the slab; chance
+/// coincidences of a few events, or of unrelated particles, in one of them.
+pub const MIN_HALF_CONSISTENCY: f64 = 0.5;
+
+impl Evidence {
+    fn of(
+        scratch: &CorrSumScratch,
+        [pw, ph]: [usize; 2],
+        peak: &crate::peak::Peak,
+        events: u32,
+    ) -> Self {
+        let plane = &scratch.plane;
+        let n = plane.len() as f64;
+        let mean = plane.iter().sum::<f64>() / n;
+        let rms = (plane.iter().map(|x| (x - mean) * (x - mean)).sum::<f64>() / n).sqrt();
+        let shape = scratch.shape;
+        let overlap = scratch.overlap.area[peak.row * pw + peak.col] / (shape.w * shape.h) as f64;
+        let c = consistency(scratch, [pw, ph], [peak.col, peak.row]);
+        Evidence {
+            pairs: peak.value * f64::from(events) * overlap,
+            contrast: if rms > 0.0 {
+                (peak.value - mean) / rms
+            } else {
+                f64::INFINITY
+            },
+            halves: c[0].min(c[1]),
+        }
+    }
+
+    /// Why the peak is too weak to be a measurement, if it is.
+    fn weak(&self) -> Option<Status> {
+        if self.pairs < MIN_PEAK_PAIRS {
+            Some(Status::FEW_EVENTS)
+        } else if self.contrast < MIN_PEAK_CONTRAST || self.halves < MIN_HALF_CONSISTENCY {
+            Some(Status::LOW_PEAK_RATIO)
+        } else {
+            None
+        }
+    }
+}
+
+/// How strongly each half of the slices supports the peak at `[col, row]` of the plane: the
+/// highest value of the half's plane within one pixel of it over the half's own maximum
+/// (1: the half peaks there too; near 0 or negative: the half shows nothing there). Both 1
+/// without two halves.
+fn consistency(scratch: &CorrSumScratch, [pw, ph]: [usize; 2], [col, row]: [usize; 2]) -> [f64; 2] {
+    if !scratch.split {
+        return [1.0; 2];
+    }
+    scratch.halves.each_ref().map(|half| {
+        let top = half.iter().copied().fold(f64::NEG_INFINITY, f64::max);
+        let mut near = f64::NEG_INFINITY;
+        for r in row.saturating_sub(1)..(row + 2).min(ph) {
+            for c in col.saturating_sub(1)..(col + 2).min(pw) {
+                near = near.max(half[r * pw + c]);
+            }
+        }
+        if top > 0.0 {
+            near / top
+        } else {
+            0.0
+        }
+    })
 }
 
 /// Auto kernel choice: direct costs about `PAIR_NS` per voxel pair, the FFT path about
@@ -533,6 +656,11 @@ impl Estimator for SumOfCorrelation {
             result.status = Status::OUT_OF_RANGE;
             return result;
         }
+        let evidence = Evidence::of(scratch, [pw, ph], &peak, events);
+        if let Some(status) = evidence.weak() {
+            result.status = status;
+            return result;
+        }
         let [px, py] = refine_with_kernel(&scratch.plane, [pw, ph], &peak, &self.smoothing, fit);
         // The displacement removed before correlating: the window offsets plus, with the
         // sub-pixel shift, twice the rest moved in each sub-volume.
@@ -603,6 +731,10 @@ pub struct CorrSumScratch {
     voxels: [Voxels; 2],
     stats: Vec<SliceStats>,
     plane: Vec<f64>,
+    /// The planes of the earlier and the later half of the slices with data.
+    halves: [Vec<f64>; 2],
+    /// Whether `halves` hold two halves (more than one slice with data).
+    split: bool,
     accumulators: direct::Accumulators,
     fourier: Option<Fourier>,
 }
@@ -625,6 +757,8 @@ impl CorrSumScratch {
             voxels: Default::default(),
             stats: Vec::with_capacity(slices as usize),
             plane: vec![0.0; shape.plane_width() * shape.plane_height()],
+            halves: [0, 1].map(|_| vec![0.0; shape.plane_width() * shape.plane_height()]),
+            split: false,
             accumulators: direct::Accumulators::new(shape),
             fourier: None,
         }

@@ -96,6 +96,12 @@ pub fn write_tracks_csv(tracks: &[crate::sim::simulation::TrackPoint], path: &Pa
     })
 }
 
+/// Write `text` to `path` through a temporary file renamed when complete, as the field
+/// writers do (for reports such as the envelope study's CSV).
+pub fn write_text(path: &Path, text: &str) -> Result<()> {
+    write_atomic(path, |w| w.write_all(text.as_bytes()))
+}
+
 /// `path` with `.partial` appended: outputs are written there and renamed when complete.
 pub(crate) fn partial_path(path: &Path) -> PathBuf {
     let mut name = path.file_name().unwrap_or_default().to_os_string();

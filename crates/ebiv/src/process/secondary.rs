@@ -11,16 +11,19 @@
 //! accepted only if
 //! - it is a local maximum of the plane strictly inside that range (not a flank of a peak
 //!   outside it),
-//! - it is at least [`MIN_RELATIVE_HEIGHT`] of the highest other peak of the same plane
-//!   (a second particle pattern, not a noise ripple),
+//! - it is at least [`MIN_RELATIVE_HEIGHT`] times the highest other peak of the same plane:
+//!   the re-centred plane itself has a clear maximum there. A peak lower than another one of
+//!   its own plane, or about as high, is weak evidence, and a vector whose own evidence is
+//!   weak is not made valid by its neighbours;
+//! - the estimator's own evidence tests pass (sum of correlation flags a peak with too few
+//!   coincident voxel pairs, too little contrast or one half of its slices not showing it:
+//!   `docs/process.md`, "Evidence of a sum-of-correlation peak"),
 //! - it passes the per-vector tests
 //!   ([`crate::validate::ValidationParams::vector_test`]) and the median test against the
 //!   same neighbours (the valid ones: other outliers are left out).
 //!
 //! An accepted vector is a measurement, so it is valid (status 0). Its `peak_ratio` is its
-//! height over the highest other peak of its plane: below 1 where a higher peak lies
-//! elsewhere (an ordinary vector's ratio is at least 1), above 1 where the re-centred plane
-//! itself peaks there.
+//! height over the highest other peak of its plane, at least [`MIN_RELATIVE_HEIGHT`].
 //!
 //! Only estimators whose correlation plane makes heights comparable take part
 //! ([`Estimator::finds_secondary_peaks`]: sum of correlation; the contrast objective of
@@ -40,8 +43,11 @@ use crate::validate::neighbour_median;
 use crate::volume::Slab;
 
 /// Smallest height of an accepted secondary peak relative to the highest other peak of its
-/// plane: a first-to-second peak ratio of at most 2, two patterns of comparable weight.
-pub const MIN_RELATIVE_HEIGHT: f64 = 0.5;
+/// plane (its first-to-second peak ratio). Below 1 the plane itself prefers another
+/// displacement, and near 1 it cannot choose between two: either way only the neighbours
+/// would speak for the peak. 1.2 is the lower end of the peak-ratio thresholds used in PIV
+/// validation.
+pub const MIN_RELATIVE_HEIGHT: f64 = 1.2;
 
 /// Re-evaluate the vectors of `field` flagged by the median test alone (and nothing else),
 /// each with the deformation of the pass's `predictor` field, centred on its neighbours'
@@ -120,9 +126,9 @@ mod tests {
     use crate::grid::{GridSpec, Window};
     use crate::validate::ValidationParams;
 
-    /// A plane with two peaks per window: the highest at `high`, a lower one of relative
-    /// height `ratio` at `low`; a restricted search finds the lower one when it lies within
-    /// the radius and nothing otherwise.
+    /// A plane with two peaks per window: the highest at `high`, another at `low`; a
+    /// restricted search finds `low`, with peak ratio `ratio` in its re-centred plane, when it
+    /// lies within the radius and nothing otherwise.
     struct TwoPeaks {
         high: [f64; 2],
         low: [f64; 2],
@@ -156,7 +162,8 @@ mod tests {
                 slab_us: 4000,
             };
             match p.and_then(|p| Some((p.velocity, p.search_radius?))) {
-                None => found(self.high, 1.0 / self.ratio),
+                // Without a restricted search: the highest peak, clearly above the rest.
+                None => found(self.high, 3.0),
                 Some((c, r)) if (0..2).all(|k| (self.low[k] - c[k]).abs() <= r) => {
                     found(self.low, self.ratio)
                 }
@@ -235,14 +242,14 @@ mod tests {
         let estimator = TwoPeaks {
             high: [3.0, 3.0],
             low: [1.05, 0.02],
-            ratio: 0.7,
+            ratio: 1.5,
         };
         let (field, n) = reevaluate(&estimator, ValidationParams::default());
         let i = field.index(2, 2);
         assert_eq!(n, 1);
         assert!(field.status[i].is_valid());
         assert_eq!([field.u[i], field.v[i]], [1.05, 0.02]);
-        assert_eq!(field.peak_ratio[i], 0.7);
+        assert_eq!(field.peak_ratio[i], 1.5);
         // The accepted estimate brings its own slab (the field was built without one).
         assert_eq!(field.slab_us[i], 4000);
         assert_eq!(field.slab_us[field.index(2, 1)], 0);
@@ -257,33 +264,36 @@ mod tests {
             assert_eq!(field.status[i], Status::MEDIAN_TEST);
             assert!(field.u[i].is_nan());
         };
-        // Below half the highest peak.
-        rejected(
-            TwoPeaks {
-                high: [3.0, 3.0],
-                low: [1.05, 0.02],
-                ratio: 0.4,
-            },
-            ValidationParams::default(),
-        );
+        // Lower than another peak of its plane (the ratios of 0.53–0.59 of issue 29's
+        // mixing layer), or about as high.
+        for ratio in [0.4, 0.55, 0.9, 1.1] {
+            rejected(
+                TwoPeaks {
+                    high: [3.0, 3.0],
+                    low: [1.05, 0.02],
+                    ratio,
+                },
+                ValidationParams::default(),
+            );
+        }
         // Outside the median test's tolerance: 2 × (0 + 0.1) px/ms around (1, 0).
         rejected(
             TwoPeaks {
                 high: [3.0, 3.0],
                 low: [1.5, 0.0],
-                ratio: 0.9,
+                ratio: 1.5,
             },
             ValidationParams::default(),
         );
-        // Failing a per-vector test (minimum peak ratio 1; the lower peak's is 0.9).
+        // Failing a per-vector test (minimum peak ratio 2; the lower peak's is 1.5).
         let strict = ValidationParams {
-            min_peak_ratio: 1.0,
+            min_peak_ratio: 2.0,
             ..ValidationParams::default()
         };
         let estimator = TwoPeaks {
             high: [3.0, 3.0],
             low: [1.05, 0.02],
-            ratio: 0.9,
+            ratio: 1.5,
         };
         let (field, n) = reevaluate(&estimator, strict);
         assert_eq!(n, 0);

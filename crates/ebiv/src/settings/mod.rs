@@ -176,9 +176,12 @@ settings! {
         /// Normalized median test ε in px/ms (px for image pairs without `dt`).
         median_epsilon: f64 = 0.1; "VALUE", check non_negative;
         /// Flag windows with fewer events (piv: fewer non-zero pixels in the first frame);
-        /// 0 = off.
+        /// 0 = off (default: the event estimators test the evidence behind each peak
+        /// themselves, which a fixed event count cannot).
         min_events: u32 = 0; "N";
-        /// Flag correlation peaks whose first/second peak ratio is lower; 0 = off.
+        /// Flag correlation peaks whose first/second peak ratio is lower; 0 = off (default:
+        /// the event estimators test their own peaks; a lone spike of a chance coincidence
+        /// has a high ratio, a good peak of a sparse window one near 1).
         min_peak_ratio: f64 = 0.0; "RATIO", check non_negative;
         /// Flag vectors faster than this, px/ms (px for image pairs without `dt`).
         max_velocity: Option<f64> = None; "VALUE", check positive;
@@ -223,7 +226,8 @@ settings! {
     }
     group "Both event estimators" {
         /// Windows with fewer events (corrsum: mean per sub-volume) are flagged `few_events`
-        /// by the estimator itself.
+        /// by the estimator itself (corrsum also flags a peak with fewer than 12 coincident
+        /// voxel pairs behind it).
         estimator_min_events: u32 = 10; "N";
     }
     group "PIV (piv, pulsed)" {

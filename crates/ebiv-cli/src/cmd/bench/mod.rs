@@ -1,5 +1,6 @@
 //! `ebiv bench`: measured throughput on this machine.
 
+mod envelope;
 mod piv;
 mod process;
 
@@ -9,7 +10,7 @@ use std::path::PathBuf;
 use std::sync::Arc;
 use std::time::Instant;
 
-/// Benchmarks; each prints the best of several runs.
+/// Benchmarks, each printing the best of several runs, and the estimators' operating envelope.
 #[derive(Debug, Args)]
 pub struct BenchArgs {
     #[command(subcommand)]
@@ -31,6 +32,11 @@ pub enum BenchWhat {
     /// Multi-pass PIV of a synthetic 1024x1024 image pair, windows 64/32/16 px at 50 %
     /// overlap (the case timed for OpenPIV in the docs).
     Piv(piv::PivBenchArgs),
+    /// Operating envelope of both event estimators: simulated uniform flows over a range of
+    /// speeds and seeding densities, processed with each window size, slab T and pass
+    /// schedule; prints per cell the RMS error, the valid share and the share of valid vectors
+    /// that are grossly wrong, as Markdown tables (runs for many minutes with the defaults).
+    Envelope(envelope::EnvelopeBenchArgs),
 }
 
 #[derive(Debug, Args)]
@@ -72,6 +78,7 @@ pub fn run(args: &BenchArgs) -> Result<(), ebiv::Error> {
         BenchWhat::Simulate(a) => simulate(a),
         BenchWhat::Process(a) => process::run(a),
         BenchWhat::Piv(a) => piv::run(a),
+        BenchWhat::Envelope(a) => envelope::run(a),
     }
 }
 
