@@ -27,13 +27,11 @@ pub use cells::{
 };
 
 use crate::error::{Error, Result};
-use crate::estimate::corrsum::SumOfCorrelation;
-use crate::estimate::motion::ContrastMaximization;
 use crate::estimate::Estimator;
 use crate::event::{EventBuffer, Geometry};
 use crate::field::FieldSeries;
 use crate::process::{process_recording, MemorySource, Method, ProcessParams};
-use crate::settings::{ProcessSettings, Resolved};
+use crate::settings::{EstimatorTask, ProcessSettings, Resolved};
 use crate::sim::particles::SeedingParams;
 use crate::sim::scenario::{Scenario, SensorSection};
 use crate::sim::FlowSpec;
@@ -314,46 +312,41 @@ impl RunSetting {
     }
 }
 
-/// A setting ready to run: its estimator and multi-pass parameters.
-enum Prepared {
-    CorrSum(Box<SumOfCorrelation>, ProcessParams),
-    Motion(Box<ContrastMaximization>, ProcessParams),
+/// A setting ready to run: its resolved parameters, from which every run builds its
+/// estimator (one slab, or a slab per window with `slab = auto`).
+struct Prepared {
+    run: Resolved,
 }
 
 impl Prepared {
-    /// The estimator and parameters of `setting`, or why the library rejects it.
+    /// The parameters of `setting`, or why the library rejects them (the estimator is built
+    /// once to check them).
     fn new(setting: &RunSetting) -> Result<Prepared> {
         let run = setting.resolve()?;
-        match run.method {
-            Method::CorrSum => Ok(Prepared::CorrSum(
-                Box::new(SumOfCorrelation::new(run.corrsum)?),
-                run.process,
-            )),
-            Method::Motion => Ok(Prepared::Motion(
-                Box::new(ContrastMaximization::new(run.motion)?),
-                run.process,
-            )),
-            _ => Err(Error::parameter(
+        if !matches!(run.method, Method::CorrSum | Method::Motion) {
+            return Err(Error::parameter(
                 "methods",
                 "the study compares the event estimators corrsum and motion",
-            )),
+            ));
         }
+        run.with_event_estimator(Built)?;
+        Ok(Prepared { run })
     }
 
     /// The delay over which a vector of a slab of `slab_us` µs claims its displacement, ms:
     /// sum of correlation's τ (in proportion to the slab where the slab is not the one
     /// configured), motion compensation's whole slab.
     fn delay_ms(&self, slab_us: u32) -> f64 {
-        match self {
-            Prepared::CorrSum(e, _) => {
-                let p = e.params();
+        match self.run.method {
+            Method::CorrSum => {
+                let p = &self.run.corrsum;
                 let scale = match slab_us {
                     0 => 1.0,
                     t => f64::from(t) / p.slab_us as f64,
                 };
                 p.tau_us as f64 * scale / 1000.0
             }
-            Prepared::Motion(..) => f64::from(slab_us) / 1000.0,
+            _ => f64::from(slab_us) / 1000.0,
         }
     }
 
@@ -364,14 +357,41 @@ impl Prepared {
         geometry: Geometry,
         duration_us: i64,
     ) -> Result<FieldSeries> {
-        match self {
-            Prepared::CorrSum(e, params) => {
-                process_fields(e.as_ref(), params, events, geometry, duration_us)
-            }
-            Prepared::Motion(e, params) => {
-                process_fields(e.as_ref(), params, events, geometry, duration_us)
-            }
-        }
+        self.run.with_event_estimator(Fields {
+            params: &self.run.process,
+            events,
+            geometry,
+            duration_us,
+        })?
+    }
+}
+
+/// Building the estimator, and nothing more.
+struct Built;
+
+impl EstimatorTask for Built {
+    type Output = ();
+    fn run<E: Estimator>(self, _: &E) {}
+}
+
+/// The fields of one recording ([`process_fields`]).
+struct Fields<'a> {
+    params: &'a ProcessParams,
+    events: &'a EventBuffer,
+    geometry: Geometry,
+    duration_us: i64,
+}
+
+impl EstimatorTask for Fields<'_> {
+    type Output = Result<FieldSeries>;
+    fn run<E: Estimator>(self, estimator: &E) -> Result<FieldSeries> {
+        process_fields(
+            estimator,
+            self.params,
+            self.events,
+            self.geometry,
+            self.duration_us,
+        )
     }
 }
 
@@ -384,7 +404,7 @@ fn process_fields<E: Estimator>(
     geometry: Geometry,
     duration_us: i64,
 ) -> Result<FieldSeries> {
-    let times = field_times(estimator.time_extent_us(), duration_us)?;
+    let times = field_times(estimator.planning_extent_us(), duration_us)?;
     let mut source = MemorySource::new(events);
     let (series, _) = process_recording(
         &mut source,
