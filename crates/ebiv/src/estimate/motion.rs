@@ -31,9 +31,9 @@
 //! value elsewhere is the vector's peak ratio ([`ContrastMaximization`]).
 //!
 //! Evidence too weak for a valid vector: a peak ratio below 1.2 (below 1.5 for a maximum at
-//! zero velocity), a maximum at the edge of the range or a sum-of-correlation start beyond
-//! it ([`Status::OUT_OF_RANGE`]), fewer events than one per pixel of the trail the velocity
-//! claims ([`Status::FEW_EVENTS`]).
+//! zero velocity), a maximum at the edge of the range or a sum-of-correlation start with a
+//! clear peak beyond it ([`Status::OUT_OF_RANGE`]), fewer events than one per pixel of the
+//! trail the velocity claims ([`Status::FEW_EVENTS`]).
 
 mod iwe;
 mod newton;
@@ -321,9 +321,9 @@ pub const RANGE_WINDOWS: f64 = 4.0;
 /// third of the window over τ, `W / (3 τ)`: with `τ = T/13` the default search range,
 /// `4 W / T` ([`RANGE_WINDOWS`]). A longer delay would be more precise but would not reach
 /// it (at T/5, 5 W / (3 T); beyond, a ghost peak inside its search region comes out valid);
-/// a start only needs to fall inside the contrast maximum's basin. Where its peak lies on the
-/// border of its search region, the events move faster than the range, and the window is
-/// flagged out of range.
+/// a start only needs to fall inside the contrast maximum's basin. Where it has a clear peak
+/// on the border of its search region ([`CLEAR_BORDER_PEAK`]), the events move faster than
+/// the range, and the window is flagged out of range.
 /// Only a start: the velocity comes from the contrast maximum, which wins over the other
 /// starts by its objective.
 ///
