@@ -201,9 +201,21 @@ fn edge_of_range_peaks_are_flagged() {
 fn predictor_centres_the_search_for_large_velocities() {
     let vel = [7.3, -5.15];
     let slab = trails(vel, 11, 300);
+    // A range of ±4 px/ms cannot reach it without a predictor.
+    let narrow = ContrastMaximization::new(MotionParams {
+        search_range: Some(4.0),
+        ..MotionParams::default()
+    })
+    .unwrap();
+    assert_eq!(run(&narrow, &slab, None).status, Status::OUT_OF_RANGE);
+    // The default range, 4 W / T = 16 px/ms, does.
     let est = default_estimator();
-    // Without a predictor the automatic range (±4 px/ms) cannot reach it.
-    assert_eq!(run(&est, &slab, None).status, Status::OUT_OF_RANGE);
+    let e = run(&est, &slab, None);
+    assert!(e.status.is_valid(), "{e:?}");
+    assert!(
+        (e.u - vel[0]).abs() < 0.05 && (e.v - vel[1]).abs() < 0.05,
+        "{e:?}"
+    );
     let e = run(&est, &slab, Some([6.8, -4.6]));
     assert!(e.status.is_valid(), "{e:?}");
     assert!(

@@ -17,7 +17,8 @@
 //!
 //! Two searches ([`SearchMethod`]). The paper's prescription ([`SearchMethod::Grid`]): a
 //! coarse grid, 5 × 5 refinements down to 0.05 px/ms and a 3-point fit, 100–200 IWE
-//! evaluations per window. The default ([`SearchMethod::Newton`]) uses the fact that with a
+//! evaluations per window over the paper's range (several hundred over the default range,
+//! [`RANGE_WINDOWS`]). The default ([`SearchMethod::Newton`]) uses the fact that with a
 //! Gaussian splat Σ I² is a smooth function of the velocity with analytic derivatives
 //! (Gallego et al. 2018): Newton steps with the analytic gradient and Hessian converge to the
 //! continuous maximum in about three evaluations (no lattice, no fit bias). The objective
@@ -25,10 +26,14 @@
 //! ones (at zero velocity wherever pixels fire several times per passing particle), so the
 //! ascent starts from every candidate that may hold the global maximum: in a first pass a
 //! sum of correlation of the same events ([`start_estimator`]), a histogram of event-pair
-//! velocities over twice the search range, and zero velocity where its objective competes;
-//! with a predictor, the predictor and the histogram. The highest maximum wins, and its
-//! height against the best value elsewhere is the vector's peak ratio
-//! ([`ContrastMaximization`]).
+//! velocities, and zero velocity where its objective competes; with a predictor, the
+//! predictor and the histogram. The highest maximum wins, and its height against the best
+//! value elsewhere is the vector's peak ratio ([`ContrastMaximization`]).
+//!
+//! Evidence too weak for a valid vector: a peak ratio below 1.2 (below 1.5 for a maximum at
+//! zero velocity), a maximum at the edge of the range or a sum-of-correlation start with a
+//! clear peak beyond it ([`Status::OUT_OF_RANGE`]), fewer events than one per pixel of the
+//! trail the velocity claims ([`Status::FEW_EVENTS`]).
 
 mod iwe;
 mod newton;
@@ -110,9 +115,12 @@ pub enum SearchMethod {
     /// variance or Σ I², [`SearchMethod::Grid`] is used instead.
     #[default]
     Newton,
-    /// The paper's prescription: a coarse grid (through a pyramid of coarser canvases for
-    /// wide ranges), 5 × 5 neighbourhoods at `coarse_step`, halving the step down to
-    /// `final_step`, then a 3-point fit: 100–200 evaluations per window.
+    /// The paper's prescription: a coarse grid over the whole range (through a pyramid of
+    /// coarser canvases for wide ranges), 5 × 5 neighbourhoods at `coarse_step`, halving the
+    /// step down to `final_step`, then a 3-point fit: 100–200 evaluations per window over
+    /// `W / T`, several hundred over the default range. The same climb from `coarse_step`
+    /// down also runs from the sum-of-correlation start of a first pass; the higher maximum
+    /// wins.
     Grid,
 }
 
@@ -170,11 +178,10 @@ pub struct MotionParams {
     pub slab_us: i64,
     /// Sharpness objective.
     pub objective: Objective,
-    /// Half-width of the search range around the predictor (or zero), px/ms. `None`: the
-    /// velocity that moves a particle by half a window in half a slab, `max(W, H) / T`
-    /// (4 px/ms for 40 px and 10 ms) — faster particles cross the window in less than half
-    /// the slab and leave too short a trail to measure; a quarter of that around a
-    /// predictor, which a previous pass knows to a fraction of it. At least two coarse steps.
+    /// Half-width of the search range around the predictor (or zero), px/ms. `None`:
+    /// [`RANGE_WINDOWS`] windows per slab, `4 max(W, H) / T` (16 px/ms for 40 px and 10 ms),
+    /// see [`RANGE_WINDOWS`]; a sixteenth of that, `max(W, H) / (4 T)`, around a predictor,
+    /// which a previous pass knows to a fraction of it. At least two coarse steps.
     pub search_range: Option<f64>,
     /// Step of the coarse candidate grid, px/ms.
     pub coarse_step: f64,
@@ -271,8 +278,9 @@ pub struct ContrastMaximization {
     fine: SplatTable,
     coarse: SplatTable,
     /// Sum of correlation over the same slab, whose velocity starts the search of windows
-    /// without a predictor ([`start_estimator`]); `None` for slabs longer than sum of
-    /// correlation accepts (16 s), where the vote and zero velocity are the only starts.
+    /// without a predictor ([`start_estimator`]); `None` for slabs whose sub-volumes
+    /// (12 T / 13) are longer than sum of correlation accepts (16 s), where the vote and
+    /// zero velocity are the only starts.
     start: Option<SumOfCorrelation>,
 }
 
@@ -285,8 +293,24 @@ pub struct MotionScratch {
     start: Option<CorrSumScratch>,
 }
 
+/// Default half-width of the search range without a predictor, in windows per slab: a
+/// displacement over the slab of up to four window sizes per component, `4 max(W, H) / T`.
+///
+/// A particle faster than `W / T` crosses the window within the slab but still leaves a
+/// straight trail across it, as long as the window and as rich in events (every pixel it
+/// crosses fires), and more of them: the slab holds every particle that crossed. What
+/// shrinks is the time the trail spends in the window, `W / |v|`: at four windows per slab
+/// it is a quarter of the slab (a fifth to a sixth diagonally), and the contrast maximum is
+/// about four times wider than at `W / T`, still narrow against the range. The bound is one
+/// of cost rather than evidence: the canvas of warped events grows as the range squared,
+/// and the sum-of-correlation start must shorten its delay as the range grows
+/// ([`start_estimator`]). Faster flows need a longer window, a shorter slab or
+/// `search_range`.
+pub const RANGE_WINDOWS: f64 = 4.0;
+
 /// The sum of correlation that gives a window without a predictor one start of its search:
-/// the slab `T` split as sub-volumes of `T − τ` at a delay `τ = T/5` in 16 slices.
+/// the slab `T` split as sub-volumes of `T − τ` at a delay `τ = T / 13`
+/// ([`start_delay_us`]) in 16 slices.
 ///
 /// Contrast maximisation has a narrow true maximum (about particle size / T wide in
 /// velocity) beside broad false ones: where every pixel fires several times as a particle
@@ -294,21 +318,50 @@ pub struct MotionScratch {
 /// images of a pixel), all events of a pixel stack up at zero velocity. A vote of event
 /// pairs can miss the true maximum there; the correlation of two
 /// sub-volumes cannot, as it compares whole images rather than pairs. Its search reaches a
-/// third of the window over τ: `5 W / (3 T)`, beyond the `W / T` at which a particle
-/// crosses the window within the slab. Only a start: the velocity comes from the contrast
-/// maximum, which wins over the other starts by its objective.
+/// third of the window over τ, `W / (3 τ)`: with `τ = T/13` the default search range,
+/// `4 W / T` ([`RANGE_WINDOWS`]). A longer delay would be more precise but would not reach
+/// it (at T/5, 5 W / (3 T); beyond, a ghost peak inside its search region comes out valid);
+/// a start only needs to fall inside the contrast maximum's basin. Where it has a clear peak
+/// on the border of its search region ([`CLEAR_BORDER_PEAK`]), the events move faster than
+/// the range, and the window is flagged out of range.
+/// Only a start: the velocity comes from the contrast maximum, which wins over the other
+/// starts by its objective.
 ///
-/// Slabs of a few µs get fewer slices, at least 1 µs each.
+/// Slabs of a few µs get slices of 1 µs (fewer, or more where τ is 1 µs).
 fn start_estimator(slab_us: i64) -> Result<SumOfCorrelation> {
-    let tau_us = (slab_us / 5).max(1);
+    let tau_us = start_delay_us(slab_us);
     let sub_us = (slab_us - tau_us).max(1);
     SumOfCorrelation::new(CorrSumParams {
         slab_us: sub_us,
         tau_us,
-        slices: sub_us.min(16) as u32,
+        // No slice longer than τ (paired slices would share events), none shorter than 1 µs.
+        slices: ((sub_us + tau_us - 1) / tau_us).max(16).min(sub_us) as u32,
         min_events: 1,
         ..CorrSumParams::default()
     })
+}
+
+/// Peak ratio from which the sum-of-correlation start's peak on the border of its search
+/// region flags the window out of range. On simulated uniform flows beyond the range
+/// (10 px/ms, 32 px windows, T = 20 ms, `ideal` sensor), 95 % of these border peaks have
+/// ratios above 3.2 (0.002 particles/px) and 4.7 (0.05).
+const CLEAR_BORDER_PEAK: f64 = 2.0;
+
+/// The fastest velocity per axis, px/ms, whose displacement over the delay of
+/// [`start_estimator`] stays inside sum of correlation's default search region (a third of
+/// the window, whole pixels).
+fn start_reach(slab_us: i64, window: [u32; 2]) -> f64 {
+    let tau_ms = start_delay_us(slab_us) as f64 / 1000.0;
+    let third = (window[0].min(window[1]) as f64 / 3.0).clamp(1.0, f64::MAX);
+    third / tau_ms
+}
+
+/// Delay τ of [`start_estimator`], µs: `T / 13`, at least 1 µs. Over τ, sum of
+/// correlation reaches a third of the window in whole pixels, `⌊W/3⌋ / τ`, which covers the
+/// default range `4 W / T` ([`RANGE_WINDOWS`]) for windows of 16 px and from 26 px up
+/// (`T / 12` would fall short of it by the rounding of `W/3`).
+fn start_delay_us(slab_us: i64) -> i64 {
+    (slab_us / 13).max(1)
 }
 
 impl ContrastMaximization {
@@ -332,11 +385,11 @@ impl ContrastMaximization {
     pub fn search_range(&self, window: [u32; 2], predicted: bool) -> f64 {
         let p = &self.params;
         let range = p.search_range.unwrap_or_else(|| {
-            let auto = window[0].max(window[1]) as f64 / (p.slab_us as f64 / 1000.0);
+            let crossing = window[0].max(window[1]) as f64 / (p.slab_us as f64 / 1000.0);
             if predicted {
-                auto / 4.0
+                crossing / 4.0
             } else {
-                auto
+                RANGE_WINDOWS * crossing
             }
         });
         range.max(if p.search_range.is_some() {
@@ -345,6 +398,21 @@ impl ContrastMaximization {
             2.0 * p.coarse_step
         })
     }
+}
+
+/// Fewest events that can show the displacement `|v| T` of `velocity` over a slab of
+/// `slab_us` in a window of `window` px: one per pixel of one particle's trail across the
+/// window, `min(|v| T, diagonal)`. A particle image crossing a pixel changes its brightness
+/// and makes it fire, so a window with fewer events holds no whole trail of that length, and
+/// a maximum claiming it rests on a few chance alignments of unrelated events.
+fn trail_events(velocity: [f64; 2], slab_us: i64, window: [u32; 2]) -> u32 {
+    let length = velocity[0].hypot(velocity[1]) * slab_us as f64 / 1000.0;
+    let diagonal = f64::from(window[0]).hypot(f64::from(window[1]));
+    if length.is_nan() {
+        // No velocity (an invalid vector) claims nothing.
+        return 0;
+    }
+    length.min(diagonal) as u32
 }
 
 /// Whole-pixel origin and size `[width, height]` of the box covering the window
@@ -426,14 +494,23 @@ impl Estimator for ContrastMaximization {
         let predictor = predictor
             .map(|p| p.velocity)
             .filter(|p| p[0].is_finite() && p[1].is_finite());
-        let correlated = match (predictor, &self.start) {
-            (Some(_), _) | (None, None) => None,
-            (None, Some(start)) => {
-                let scratch = scratch.start.get_or_insert_with(|| start.scratch(dims));
-                let e = start.estimate(slab, window, t0_us, None, scratch);
-                (e.status.is_valid() && e.u.is_finite() && e.v.is_finite()).then_some([e.u, e.v])
-            }
-        };
+        let range = self.search_range(dims, predictor.is_some());
+        let (mut correlated, mut beyond) = (None, false);
+        if let (None, Some(start)) = (predictor, &self.start) {
+            let scratch = scratch.start.get_or_insert_with(|| start.scratch(dims));
+            let e = start.estimate(slab, window, t0_us, None, scratch);
+            let valid = e.status.is_valid() && e.u.is_finite() && e.v.is_finite();
+            correlated = valid.then_some([e.u, e.v]);
+            // A clear peak (twice any other) on the border of its search region: the events
+            // move faster than it reaches, and so faster than the range if that is no wider.
+            // (In windows of a few particles, a weak border peak is noise.)
+            beyond = e.status.contains(Status::OUT_OF_RANGE)
+                && f64::from(e.peak_ratio) >= CLEAR_BORDER_PEAK
+                && range <= start_reach(self.params.slab_us, dims) * (1.0 + 1e-9);
+        }
+        if beyond {
+            return WindowEstimate::invalid(Status::OUT_OF_RANGE, count, slab_us);
+        }
         let search = Search {
             start: correlated,
             events: &scratch.events,
@@ -441,7 +518,7 @@ impl Estimator for ContrastMaximization {
             extent,
             centre: predictor.unwrap_or([0.0, 0.0]),
             predicted: predictor.is_some(),
-            range: self.search_range(dims, predictor.is_some()),
+            range,
             params: &self.params,
             fine: &self.fine,
             coarse: &self.coarse,
@@ -449,11 +526,15 @@ impl Estimator for ContrastMaximization {
         let Some(out) = search.run(&mut scratch.search) else {
             return WindowEstimate::invalid(Status::OUT_OF_RANGE, count, slab_us);
         };
-        let valid = out.status.is_valid();
+        let mut status = out.status;
+        if status.is_valid() && count < trail_events(out.velocity, self.params.slab_us, dims) {
+            status = Status::FEW_EVENTS;
+        }
+        let valid = status.is_valid();
         WindowEstimate {
             u: if valid { out.velocity[0] } else { f64::NAN },
             v: if valid { out.velocity[1] } else { f64::NAN },
-            status: out.status,
+            status,
             peak: out.peak as f32,
             peak_ratio: out.peak_ratio as f32,
             event_count: count,
@@ -476,10 +557,10 @@ impl Estimator for ContrastMaximization {
             ("objective".into(), p.objective.name().into()),
             (
                 "search_range".into(),
-                p.search_range
-                    .map_or("auto (max(W,H)/T; /4 with predictor)".into(), |r| {
-                        format!("{r} px/ms")
-                    }),
+                p.search_range.map_or(
+                    "auto (4 max(W,H)/T; max(W,H)/(4T) with predictor)".into(),
+                    |r| format!("{r} px/ms"),
+                ),
             ),
             ("coarse_step".into(), format!("{} px/ms", p.coarse_step)),
             ("final_step".into(), format!("{} px/ms", p.final_step)),
@@ -501,7 +582,7 @@ mod tests {
     #[test]
     fn every_valid_slab_builds_the_estimator() {
         for slab_us in [
-            1, 2, 5, 16, 17, 20, 99, 10_000, 16_000_000, 20_000_000, 60_000_000,
+            1, 2, 5, 16, 17, 20, 99, 10_000, 16_000_000, 17_000_000, 18_000_000, 60_000_000,
         ] {
             let params = super::MotionParams {
                 slab_us,
@@ -509,8 +590,18 @@ mod tests {
             };
             let built = super::ContrastMaximization::new(params);
             let built = built.unwrap_or_else(|e| panic!("slab {slab_us} µs: {e}"));
-            assert_eq!(built.start.is_some(), slab_us <= 20_000_000, "{slab_us}");
+            // Sub-volumes of T − T/13 up to sum of correlation's 16 s.
+            let sub_us = slab_us - slab_us / 13;
+            assert_eq!(built.start.is_some(), sub_us <= 16_000_000, "{slab_us}");
         }
+    }
+
+    #[test]
+    fn a_claimed_displacement_needs_a_trail_of_events() {
+        // 5 px/ms over 10 ms: 50 px, more than the 45 px diagonal of a 32 px window.
+        assert_eq!(super::trail_events([3.0, 4.0], 10_000, [32, 32]), 45);
+        assert_eq!(super::trail_events([0.6, 0.8], 10_000, [32, 32]), 10);
+        assert_eq!(super::trail_events([f64::NAN; 2], 10_000, [32, 32]), 0);
     }
 
     #[test]

@@ -211,10 +211,13 @@ settings! {
         /// How the contrast maximum is found: newton (analytic gradient and Hessian, about
         /// three evaluations per start; started from a sum of correlation, an event-pair
         /// vote and zero velocity, the highest maximum wins) or grid (the paper's coarse
-        /// grid and 5×5 refinement, 100–200 evaluations).
+        /// grid over the whole range and 5×5 refinement, also from the sum-of-correlation
+        /// start; several hundred evaluations over the default range).
         motion_search: SearchMethod = SearchMethod::Newton; "METHOD";
-        /// Half-width of the velocity search range in px/ms. Default: window/slab, a
-        /// quarter of it around a previous pass's prediction.
+        /// Half-width of the velocity search range in px/ms, per component. Default:
+        /// 4 × window/slab (particles crossing the window within the slab still leave a
+        /// trail across it), window/(4 × slab) around a previous pass's prediction. Maxima
+        /// at its edge, and windows whose events move faster, are flagged out_of_range.
         search_range: Option<f64> = None; "PX_PER_MS", check positive;
         /// Sharpness objective of the warped event image: variance, sum-of-squares,
         /// sum-exp, r1, isoa or max-accumulation.
