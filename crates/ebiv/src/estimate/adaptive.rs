@@ -245,7 +245,8 @@ impl<E: Estimator> AdaptiveSlab<E> {
     /// its velocity chooses until two measurements over different slabs agree (see
     /// [`AdaptiveSlab::first_pass`]). With `confirm_same` false (`e` measured over the slab
     /// a predictor chose), an estimate whose velocity chooses the same slab or a neighbour
-    /// is accepted: the predictor already agrees with it.
+    /// is accepted: the predictor already agrees with it, unless the slab it asks for is
+    /// longer than the events allow.
     fn settle(
         &self,
         at: (&Slab, &Window, i64),
@@ -256,7 +257,10 @@ impl<E: Estimator> AdaptiveSlab<E> {
     ) -> WindowEstimate {
         for _ in 0..MAX_CONFIRMATIONS {
             let chosen = self.slab_for_speed(speed(&e), longest);
-            if !confirm_same && chosen.abs_diff(k) <= 1 {
+            // A velocity that asks for a longer slab than the events around the field time
+            // hold (near the ends of a recording) is confirmed even over the predictor's.
+            let capped = self.slab_for_speed(speed(&e), self.slabs.len() - 1) > longest;
+            if !confirm_same && !capped && chosen.abs_diff(k) <= 1 {
                 return e;
             }
             let other = if chosen != k {

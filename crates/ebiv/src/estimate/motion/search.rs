@@ -473,6 +473,21 @@ impl Search<'_> {
                 return Some(invalid(Status::LOW_PEAK_RATIO, ratio));
             }
         }
+        // Around a prediction the search sees only its neighbourhood. Where the events are
+        // far sharper at rest than anywhere near the prediction, the prediction is wrong
+        // for this window (a coarser pass's window that reached into faster flow), and the
+        // maximum near it is a local one: one plain evaluation at zero velocity (which the
+        // canvas covers) tells, with the margin a zero maximum needs over a moving one.
+        if self.predicted && !near(velocity, [0.0; 2]) {
+            let at_rest = self.squares([0.0; 2], &canvas, s);
+            let lowest = seen.lowest.min(at_rest);
+            if peak_ratio(at_rest, squares, lowest) >= ZERO_COMPARABLE {
+                return Some(invalid(
+                    Status::LOW_PEAK_RATIO,
+                    peak_ratio(squares, at_rest, lowest),
+                ));
+            }
+        }
         // Within half a refinement step of the border counts as on it, as for the grid's
         // last lattice point.
         let edge = half - 0.5 * p.final_step;
