@@ -11,13 +11,17 @@
 //! [`AdaptiveSlab`] holds one estimator per slab of a geometric ladder from
 //! [`AdaptiveSlabParams::min_us`] to [`AdaptiveSlabParams::max_us`] (steps of √2, so the
 //! displacement over the chosen slab lies within a factor 2^¼ of the target):
-//! - with a predictor (a later pass), the window takes the slab whose predicted
-//!   displacement |v|·T is nearest [`AdaptiveSlabParams::displacement_px`]; a window with
-//!   too few events there takes the next longer slabs, up to two steps;
 //! - without one (a first pass), it is measured over the probe slab
-//!   [`AdaptiveSlabParams::probe_us`] and then again over the slab its own velocity
-//!   chooses; a probe that fails is repeated over a slab four times longer (too few events,
-//!   no peak) or shorter (beyond the estimator's range) before the choice.
+//!   [`AdaptiveSlabParams::probe_us`], then over the slab its velocity chooses, until two
+//!   measurements over different slabs, each without predictor, agree
+//!   ([`AdaptiveSlab::first_pass`]); a probe that fails is first repeated over a slab four
+//!   times longer (too few events, no peak) or shorter (beyond the estimator's range);
+//! - with a predictor (a later pass), the window takes the slab whose predicted
+//!   displacement |v|·T is nearest [`AdaptiveSlabParams::displacement_px`] (the next longer
+//!   slabs, up to two steps, where that one has too few events). Where it still fails, or
+//!   measures a velocity that asks for a slab more than one step away, the window finds its
+//!   slab as a first pass does. Over slabs longer than the probe's the predictor's gradient
+//!   does not deform the events ([`AdaptiveSlab::guide`]).
 //!
 //! The fields stay on one regular time grid (planned with the probe slab,
 //! [`Estimator::planning_extent_us`]); every vector records the slab it was measured over
