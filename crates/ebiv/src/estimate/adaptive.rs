@@ -14,14 +14,14 @@
 //! - without one (a first pass), it is measured over the probe slab
 //!   [`AdaptiveSlabParams::probe_us`], then over the slab its velocity chooses, until two
 //!   measurements over different slabs, each without predictor, agree
-//!   ([`AdaptiveSlab::first_pass`]); a probe that fails is first repeated over a slab four
+//!   (`AdaptiveSlab::first_pass`); a probe that fails is first repeated over a slab four
 //!   times longer (too few events, no peak) or shorter (beyond the estimator's range);
 //! - with a predictor (a later pass), the window takes the slab whose predicted
 //!   displacement |v|·T is nearest [`AdaptiveSlabParams::displacement_px`] (the next longer
 //!   slabs, up to two steps, where that one has too few events). Where it still fails, or
 //!   measures a velocity that asks for a slab more than one step away, the window finds its
 //!   slab as a first pass does. Over slabs longer than the probe's the predictor's gradient
-//!   does not deform the events ([`AdaptiveSlab::guide`]).
+//!   does not deform the events (`AdaptiveSlab::guide`).
 //!
 //! The fields stay on one regular time grid (planned with the probe slab,
 //! [`Estimator::planning_extent_us`]); every vector records the slab it was measured over

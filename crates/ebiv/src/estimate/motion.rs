@@ -25,7 +25,7 @@
 //! has a narrow true maximum, about particle size / T wide in velocity, beside broad false
 //! ones (at zero velocity wherever pixels fire several times per passing particle), so the
 //! ascent starts from every candidate that may hold the global maximum: in a first pass a
-//! sum of correlation of the same events ([`start_estimator`]), a histogram of event-pair
+//! sum of correlation of the same events (`start_estimator`), a histogram of event-pair
 //! velocities, and zero velocity where its objective competes; with a predictor, the
 //! predictor and the histogram. The highest maximum wins, and its height against the best
 //! value elsewhere is the vector's peak ratio ([`ContrastMaximization`]).
