@@ -55,6 +55,14 @@ const AGREEMENT_PX: f64 = 0.2;
 /// particles differently over slabs of different length).
 const AGREEMENT_SHARE: f64 = 0.05;
 
+/// Whether two estimates over different slabs give the same velocity: within
+/// [`AGREEMENT_PX`] of displacement over each slab plus [`AGREEMENT_SHARE`] of the speed.
+fn agree(a: &WindowEstimate, b: &WindowEstimate) -> bool {
+    let px_per_ms = |e: &WindowEstimate| AGREEMENT_PX / (e.slab_us.max(1) as f64 / 1000.0);
+    let tolerance = px_per_ms(a) + px_per_ms(b) + AGREEMENT_SHARE * speed(a).max(speed(b));
+    (a.u - b.u).hypot(a.v - b.v) <= tolerance
+}
+
 /// The speed of an estimate, px/ms.
 fn speed(e: &WindowEstimate) -> f64 {
     e.u.hypot(e.v)
@@ -295,7 +303,7 @@ impl<E: Estimator> AdaptiveSlab<E> {
             if !f.status.is_valid() {
                 return f;
             }
-            if self.agree(&e, &f) {
+            if agree(&e, &f) {
                 return if other == chosen { f } else { e };
             }
             (k, e) = (other, f);
@@ -307,14 +315,6 @@ impl<E: Estimator> AdaptiveSlab<E> {
             status: Status::LOW_PEAK_RATIO,
             ..e
         }
-    }
-
-    /// Whether two estimates over different slabs give the same velocity: within
-    /// [`AGREEMENT_PX`] of displacement over each slab plus [`AGREEMENT_SHARE`] of the speed.
-    fn agree(&self, a: &WindowEstimate, b: &WindowEstimate) -> bool {
-        let px_per_ms = |e: &WindowEstimate| AGREEMENT_PX / (e.slab_us.max(1) as f64 / 1000.0);
-        let tolerance = px_per_ms(a) + px_per_ms(b) + AGREEMENT_SHARE * speed(a).max(speed(b));
-        (a.u - b.u).hypot(a.v - b.v) <= tolerance
     }
 
     /// What the predictor tells the estimator over slab `k`: everything over slabs up to
