@@ -39,7 +39,7 @@ use crate::peak::{argmax, find_peak_within, peak_at, SubPixelFit};
 use crate::volume::{Slab, TileRun, TileVisitor, WindowEvents};
 use fit::{refine_with_kernel, SmoothingKernel};
 use fourier::Fourier;
-use voxels::{slice_statistics, Overlap, PlaneShape, SliceStats, Voxeliser, Voxels};
+use voxels::{slice_statistics, Overlap, PlaneShape, SliceStats, SubVolume, Voxeliser, Voxels};
 
 /// How the correlation plane is computed; all kernels give the same plane.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
@@ -282,26 +282,23 @@ impl SumOfCorrelation {
         (scaled % p.slab_us == 0).then(|| (scaled / p.slab_us) as usize)
     }
 
-    /// Compute the normalised, summed correlation plane of `window`'s events around `t0_us`
-    /// with the integer window offset `[s1, s2]` per axis (S1 window moved by `−s1`, S2 by
-    /// `+s2`) and, if given, the sub-pixel shift of the events (S1 by `+a`, S2 by `−a`,
-    /// [`CorrSumParams::subpixel_shift`]) into `scratch.plane`, and return the event count
-    /// and the index of the plane's maximum (`None`: no value above −∞), or the window's
-    /// invalid estimate. The maxima of the plane's rows are left in `scratch.accumulators`.
-    fn correlation_plane(
+    /// Voxelise S1 and S2 of `window`'s events around `t0_us`, with the integer window
+    /// offset `[s1, s2]` per axis, the sub-pixel shift and the deformation, if any (see
+    /// [`SumOfCorrelation::correlation_plane`]), into `scratch.voxels`. Returns the delay in
+    /// slices when both sub-volumes come from one voxelisation ([`sub_volumes`]).
+    fn voxelise(
         &self,
         slab: &Slab,
         window: &Window,
         t0_us: i64,
         (offsets, shift): ([[i64; 2]; 2], Option<[f32; 2]>),
-        predictor: Option<&Prediction>,
+        deformation: Option<Deformation>,
         scratch: &mut CorrSumScratch,
-    ) -> std::result::Result<(u32, Option<usize>), WindowEstimate> {
+    ) -> Option<usize> {
         let p = &self.params;
         let s1_start = t0_us - self.half_extent_us();
         let s2_start = s1_start + p.tau_us;
         let count = p.weighting == Weighting::Count;
-        let deformation = predictor.and_then(|p| p.deformation);
         let slices = p.slices as usize;
         // Without a window offset both sub-volumes cover the same pixels: one voxelisation of
         // `[S1 start, S2 end)` serves both (S1 and S2 overlap by T − τ).
@@ -343,13 +340,28 @@ impl SumOfCorrelation {
                 scratch.bin(slab, &w, times, bin, count, deformation.as_ref(), rest, k);
             }
         }
-        let (a, b) = match shared {
-            Some(k) => (
-                scratch.voxels[0].sub_volume(0, slices),
-                scratch.voxels[0].sub_volume(k, slices),
-            ),
-            None => (scratch.voxels[0].all(), scratch.voxels[1].all()),
-        };
+        shared
+    }
+
+    /// Compute the normalised, summed correlation plane of `window`'s events around `t0_us`
+    /// with the integer window offset `[s1, s2]` per axis (S1 window moved by `−s1`, S2 by
+    /// `+s2`) and, if given, the sub-pixel shift of the events (S1 by `+a`, S2 by `−a`,
+    /// [`CorrSumParams::subpixel_shift`]) into `scratch.plane`, and return the event count
+    /// and the index of the plane's maximum (`None`: no value above −∞), or the window's
+    /// invalid estimate. The maxima of the plane's rows are left in `scratch.accumulators`.
+    fn correlation_plane(
+        &self,
+        slab: &Slab,
+        window: &Window,
+        t0_us: i64,
+        (offsets, shift): ([[i64; 2]; 2], Option<[f32; 2]>),
+        predictor: Option<&Prediction>,
+        scratch: &mut CorrSumScratch,
+    ) -> std::result::Result<(u32, Option<usize>), WindowEstimate> {
+        let p = &self.params;
+        let deformation = predictor.and_then(|p| p.deformation);
+        let shared = self.voxelise(slab, window, t0_us, (offsets, shift), deformation, scratch);
+        let (a, b) = sub_volumes(&scratch.voxels, shared, p.slices as usize);
         let (n1, n2) = (a.events(), b.events());
         let events = u32::try_from((n1 + n2) / 2).unwrap_or(u32::MAX);
         if n1 == 0 || n2 == 0 {
@@ -428,6 +440,64 @@ impl SumOfCorrelation {
         scratch.accumulators.find_row_maxima(&scratch.plane, width);
         let best = argmax(&scratch.plane);
         Ok((events, best))
+    }
+}
+
+impl SumOfCorrelation {
+    /// Whether the window's own events, neither offset nor deformed, correlate far better
+    /// at rest than at the displacement `d` (px over τ) that the search around a prediction
+    /// found: then the prediction is wrong for this window (a coarser pass's window that
+    /// reached into faster flow, as beside a shear layer), and the peak near it is a ridge
+    /// of the events that the wrong prediction shears, not a displacement. The test is the
+    /// one motion compensation makes around a prediction, with the same margin
+    /// ([`AT_REST_MARGIN`]): the correlation coefficient at zero lag against the one at `d`
+    /// (bilinear between its four lags), both above the zero of unrelated lags. Below half
+    /// a pixel the two cannot be told apart and the test is not made.
+    fn rests_better(
+        &self,
+        slab: &Slab,
+        window: &Window,
+        t0_us: i64,
+        d: [f64; 2],
+        scratch: &mut CorrSumScratch,
+    ) -> bool {
+        if d.iter().all(|v| v.abs() < 0.5) || d.iter().any(|v| !v.is_finite()) {
+            return false;
+        }
+        let shared = self.voxelise(slab, window, t0_us, ([[0; 2]; 2], None), None, scratch);
+        let (a, b) = sub_volumes(&scratch.voxels, shared, self.params.slices as usize);
+        let shape = scratch.shape;
+        slice_statistics(a, b, shape, &mut scratch.stats);
+        let stats = &scratch.stats;
+        let at = |dx: i64, dy: i64| direct::correlation_at(a, b, stats, shape, [dx, dy]);
+        let rest = at(0, 0);
+        let [cx, cy] = d.map(|v| v.floor() as i64);
+        let [fx, fy] = [d[0] - cx as f64, d[1] - cy as f64];
+        let moving = (1.0 - fy) * ((1.0 - fx) * at(cx, cy) + fx * at(cx + 1, cy))
+            + fy * ((1.0 - fx) * at(cx, cy + 1) + fx * at(cx + 1, cy + 1));
+        rest > 0.0 && rest >= AT_REST_MARGIN * moving.max(0.0)
+    }
+}
+
+/// How much better the window's events must correlate at rest than at the displacement
+/// found around a prediction for the vector to be flagged ([`SumOfCorrelation`]'s test of
+/// its prediction): the margin motion compensation asks of a maximum at zero velocity over a
+/// moving one.
+pub const AT_REST_MARGIN: f64 = 1.5;
+
+/// S1 and S2 as [`SumOfCorrelation::voxelise`] left them: two overlapping runs of `slices`
+/// slices of the first voxelisation, `shared` slices apart, or one voxelisation each.
+fn sub_volumes(
+    voxels: &[Voxels; 2],
+    shared: Option<usize>,
+    slices: usize,
+) -> (SubVolume<'_>, SubVolume<'_>) {
+    match shared {
+        Some(k) => (
+            voxels[0].sub_volume(0, slices),
+            voxels[0].sub_volume(k, slices),
+        ),
+        None => (voxels[0].all(), voxels[1].all()),
     }
 }
 
@@ -673,6 +743,9 @@ impl Estimator for SumOfCorrelation {
         result.u = dx / tau_ms;
         result.v = dy / tau_ms;
         result.status = Status::VALID;
+        if predictor.is_some() && self.rests_better(slab, window, t0_us, [dx, dy], scratch) {
+            result.status = Status::LOW_PEAK_RATIO;
+        }
         result
     }
 

@@ -451,3 +451,61 @@ fn index_mask(cells: &[f64]) -> usize {
     assert!(cells.len().is_power_of_two());
     cells.len() - 1
 }
+
+/// The normalised correlation of the slices in `stats` at the single lag `[dx, dy]`, the
+/// value [`correlate`] puts in that lag's cell (whatever the search radius): the sum over
+/// the overlap region of the mean-subtracted products, per slice weighted by
+/// `1 / (σ_a σ_b)`, over the overlap area and the number of slices. The voxel pairs at one
+/// lag are found by merging the two row-major voxel lists, `a`'s moved by the lag, so the
+/// cost is linear in the voxels. 0 for a lag with no overlap.
+pub(super) fn correlation_at(
+    a: SubVolume<'_>,
+    b: SubVolume<'_>,
+    stats: &[SliceStats],
+    shape: PlaneShape,
+    [dx, dy]: [i64; 2],
+) -> f64 {
+    let (w, h) = (shape.w as i64, shape.h as i64);
+    let area = (w - dx.abs()) * (h - dy.abs());
+    if area <= 0 || stats.is_empty() {
+        return 0.0;
+    }
+    // Voxel p of `a` meets voxel p + Δ of `b`; both must lie in the window.
+    let a_inside = |x: i64, y: i64| (0..w).contains(&(x + dx)) && (0..h).contains(&(y + dy));
+    let b_inside = |x: i64, y: i64| (0..w).contains(&(x - dx)) && (0..h).contains(&(y - dy));
+    let value = |v: SubVolume<'_>, i: usize| if v.vox.unit { 1.0 } else { v.vox.v[i] };
+    let mut total = 0.0;
+    for s in stats {
+        let (ra, rb) = (a.range(s.z), b.range(s.z));
+        let (mut sum_a, mut sum_b, mut sum_ab) = (0.0, 0.0, 0.0);
+        for i in ra.clone() {
+            if a_inside(i64::from(a.vox.x[i]), i64::from(a.vox.y[i])) {
+                sum_a += value(a, i);
+            }
+        }
+        for j in rb.clone() {
+            if b_inside(i64::from(b.vox.x[j]), i64::from(b.vox.y[j])) {
+                sum_b += value(b, j);
+            }
+        }
+        // Both lists are sorted by (row, column); moving `a`'s by the lag keeps its order.
+        let key_a = |i: usize| (i64::from(a.vox.y[i]) + dy, i64::from(a.vox.x[i]) + dx);
+        let key_b = |j: usize| (i64::from(b.vox.y[j]), i64::from(b.vox.x[j]));
+        let (mut i, mut j) = (ra.start, rb.start);
+        while i < ra.end && j < rb.end {
+            match key_a(i).cmp(&key_b(j)) {
+                std::cmp::Ordering::Less => i += 1,
+                std::cmp::Ordering::Greater => j += 1,
+                std::cmp::Ordering::Equal => {
+                    sum_ab += value(a, i) * value(b, j);
+                    i += 1;
+                    j += 1;
+                }
+            }
+        }
+        let covariance =
+            sum_ab - s.mean_b * sum_a - s.mean_a * sum_b + area as f64 * s.mean_a * s.mean_b;
+        total += s.weight * covariance;
+    }
+    total / (area as f64 * stats.len() as f64)
+}

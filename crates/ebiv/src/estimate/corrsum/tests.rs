@@ -162,6 +162,37 @@ fn direct_fft_and_definition_agree_on_random_inputs() {
         assert_eq!(best_portable, best, "case {case}");
         let bits = |plane: &[f64]| plane.iter().map(|v| v.to_bits()).collect::<Vec<_>>();
         assert_eq!(bits(&direct), bits(&portable), "case {case}");
+        // One lag at a time gives the plane's values, and a lag past the plane its own.
+        for (iy, row) in direct.chunks(pw).enumerate() {
+            for (ix, &cell) in row.iter().enumerate() {
+                let lag = [ix as i64 - rx as i64, iy as i64 - ry as i64];
+                let single = direct::correlation_at(a, b, &stats, shape, lag);
+                assert!(
+                    (single - cell).abs() < 1e-9 * cell.abs().max(1.0),
+                    "case {case}"
+                );
+            }
+        }
+        if shape.w * shape.h < 500 {
+            // The farthest corner of the widest plane (small windows: the dense plane is slow).
+            let wide = PlaneShape {
+                rx: shape.w - 1,
+                ry: shape.h - 1,
+                ..shape
+            };
+            let corner =
+                dense_plane(a, b, &stats, wide)[(wide.plane_height() - 1) * wide.plane_width()];
+            let far = [1 - shape.w as i64, shape.h as i64 - 1];
+            let single = direct::correlation_at(a, b, &stats, shape, far);
+            assert!(
+                (single - corner).abs() < 1e-9,
+                "case {case}: {single} vs {corner}"
+            );
+        }
+        assert_eq!(
+            direct::correlation_at(a, b, &stats, shape, [shape.w as i64, 0]),
+            0.0
+        );
         let mut fft = vec![0.0; pw * ph];
         Fourier::new(shape).correlate(a, b, &stats, &overlap, &mut fft);
         let dense = dense_plane(a, b, &stats, shape);

@@ -55,6 +55,18 @@ pub(crate) struct SplatTable {
 }
 
 impl SplatTable {
+    /// Σ w² of one point's splat at the first tabulated sub-pixel position: what a lone
+    /// event adds to Σ I², and half of what a pair of coinciding events adds to it beyond
+    /// two lone ones (`(w + w)² = 2w² + 2w²`), so that a rise of Σ I² counts coinciding
+    /// pairs.
+    pub fn point_energy(&self) -> f64 {
+        let row: f64 = self.weights[..self.taps]
+            .iter()
+            .map(|&w| f64::from(w) * f64::from(w))
+            .sum();
+        row * row
+    }
+
     /// Panic unless the rows are stored `p` lanes wide, as the kernel about to read them
     /// assumes (a programming error, checked in release builds too: it costs one compare
     /// per evaluation).

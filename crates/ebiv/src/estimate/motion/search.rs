@@ -29,6 +29,7 @@ use super::iwe::{evaluate, Canvas, Events, SplatTable, Workspace};
 use super::newton::ascend;
 use super::votes::{vote, VoteScratch, MAX_STARTS};
 use super::{MotionParams, Objective, SearchMethod, Splat};
+use crate::estimate::corrsum::MIN_PEAK_PAIRS;
 use crate::field::Status;
 use crate::peak::{self, SubPixelFit};
 
@@ -458,6 +459,23 @@ impl Search<'_> {
         if height.is_nan() || height <= 0.0 {
             return Some(invalid(Status::NO_PEAK, ratio));
         }
+        // The events the maximum brings together: pairs of events that coincide there
+        // beyond the background ([`SplatTable::point_energy`]), as many as sum of
+        // correlation asks of its peak.
+        let pairs = |rise: f64| rise / (2.0 * self.fine.point_energy());
+        if pairs(height) < MIN_PEAK_PAIRS {
+            return Some(invalid(Status::FEW_EVENTS, ratio));
+        }
+        // A maximum that claims motion, half a pixel or more over the events' time span, must
+        // also bring that many more pairs together than rest does: where the particles move
+        // a fraction of a pixel, the contrast is about as high anywhere within a pixel per
+        // slab of zero, and chance alignments of neighbouring pixels' events place the
+        // maximum there.
+        let at_rest = self.squares([0.0; 2], &canvas, s);
+        let moves = velocity[0].hypot(velocity[1]) * 2.0 * t_max >= 0.5;
+        if moves && pairs(squares - at_rest) < MIN_PEAK_PAIRS {
+            return Some(invalid(Status::LOW_PEAK_RATIO, ratio));
+        }
         if ratio < COMPARABLE {
             return Some(invalid(Status::LOW_PEAK_RATIO, ratio));
         }
@@ -479,7 +497,6 @@ impl Search<'_> {
         // maximum near it is a local one: one plain evaluation at zero velocity (which the
         // canvas covers) tells, with the margin a zero maximum needs over a moving one.
         if self.predicted && !near(velocity, [0.0; 2]) {
-            let at_rest = self.squares([0.0; 2], &canvas, s);
             let lowest = seen.lowest.min(at_rest);
             if peak_ratio(at_rest, squares, lowest) >= ZERO_COMPARABLE {
                 return Some(invalid(
