@@ -8,7 +8,7 @@ use ebiv::assess::{field_errors, ErrorStats};
 use ebiv::estimate::corrsum::{CorrSumParams, SumOfCorrelation};
 use ebiv::estimate::motion::{ContrastMaximization, MotionParams};
 use ebiv::estimate::Estimator;
-use ebiv::field::FieldSeries;
+use ebiv::field::{FieldSeries, Status};
 use ebiv::grid::GridSpec;
 use ebiv::process::{process_recording, MemorySource, ProcessParams};
 use ebiv::sim::simulation::Simulation;
@@ -192,6 +192,24 @@ fn process_with<E: Estimator>(
     .0
 }
 
+/// `a` and `b` with only the vectors valid in both left valid (the others masked), so that
+/// their errors are compared on the same windows.
+fn on_common_windows(a: &FieldSeries, b: &FieldSeries) -> (FieldSeries, FieldSeries) {
+    let (mut a, mut b) = (a.clone(), b.clone());
+    for i in 0..a.status.len() {
+        if !(a.status[i].is_valid() && b.status[i].is_valid()) {
+            a.status[i] = Status::MASKED;
+            b.status[i] = Status::MASKED;
+        }
+    }
+    (a, b)
+}
+
+/// Multi-pass (64 → 32 px, deformed events) against one 32 px pass in a Lamb–Oseen vortex
+/// (up to 4 px/ms, 12 px within τ near the core, beyond the single pass's search radius):
+/// the multi-pass run is more accurate on the windows both measure. (Sum of correlation's
+/// single pass flags the windows whose peak lies beyond its radius rather than passing a
+/// wrong one, so over all their valid vectors it can look the better of the two.)
 #[test]
 fn multi_pass_beats_single_pass_in_a_lamb_oseen_vortex() {
     let flow = r#"type = "lamb_oseen"
@@ -199,22 +217,31 @@ centre = [127.5, 127.5]
 circulation = 1000.0
 core_radius = 25.0"#;
     let (sim, events) = scenario(flow, "40ms", 13);
-    let c = corrsum();
-    let single = errors(&process(&c, &sim, &events, &[(32, 16)], &FIELD_TIMES), &sim);
-    let multi = errors(
-        &process(&c, &sim, &events, &[(64, 32), (32, 16)], &FIELD_TIMES),
-        &sim,
-    );
-    println!("Lamb–Oseen, corrsum single 32 px: {single}\nLamb–Oseen, corrsum 64→32 px: {multi}");
-    assert!(multi.rms < single.rms, "single {single}\nmulti {multi}");
-    let m = motion();
-    let single = errors(&process(&m, &sim, &events, &[(32, 16)], &FIELD_TIMES), &sim);
-    let multi = errors(
-        &process(&m, &sim, &events, &[(64, 32), (32, 16)], &FIELD_TIMES),
-        &sim,
-    );
-    println!("Lamb–Oseen, motion single 32 px: {single}\nLamb–Oseen, motion 64→32 px: {multi}");
-    assert!(multi.rms < single.rms, "single {single}\nmulti {multi}");
+    let (c, m) = (corrsum(), motion());
+    let runs: [(&str, &dyn Fn(&[(u32, u32)]) -> FieldSeries); 2] = [
+        ("corrsum", &|passes| {
+            process(&c, &sim, &events, passes, &FIELD_TIMES)
+        }),
+        ("motion", &|passes| {
+            process(&m, &sim, &events, passes, &FIELD_TIMES)
+        }),
+    ];
+    for (name, run) in runs {
+        let (single, multi) = (run(&[(32, 16)]), run(&[(64, 32), (32, 16)]));
+        let (all_single, all_multi) = (errors(&single, &sim), errors(&multi, &sim));
+        let (single, multi) = on_common_windows(&single, &multi);
+        let (single, multi) = (errors(&single, &sim), errors(&multi, &sim));
+        println!(
+            "Lamb–Oseen, {name} single 32 px: {all_single}\n  on the windows both measure: {single}"
+        );
+        println!(
+            "Lamb–Oseen, {name} 64→32 px: {all_multi}\n  on the windows both measure: {multi}"
+        );
+        assert!(
+            multi.rms < single.rms,
+            "{name}: single {single}\nmulti {multi}"
+        );
+    }
 }
 
 /// The issue's dynamic velocity range, DVR ≥ 350 on the turntable (the paper reports 175),

@@ -445,21 +445,26 @@ impl SumOfCorrelation {
 
 impl SumOfCorrelation {
     /// The window's own evidence for the displacement `d` (px over τ) of the peak it found:
-    /// its events, neither shifted nor deformed, correlated at a few single lags
-    /// ([`direct::correlation_at`]). `Some(LOW_PEAK_RATIO)` when it fails either test:
-    /// - **half delay**: a displacement grows with the delay, so over τ/2 the events must
-    ///   correlate at `d/2` at least [`MIN_HALF_DELAY_SUPPORT`] times as well as over τ at
-    ///   `d` (the highest of the four lags around each). A true peak passes easily, as the
-    ///   images decorrelate less over the shorter delay; a peak of chance alignments of
-    ///   particle streaks (a displacement beyond the search radius leaves nothing else) has
-    ///   nothing at half its lag;
-    /// - **at rest**, around a prediction (`predicted`): the events must not correlate
-    ///   [`AT_REST_MARGIN`] times better at zero lag than at `d` (bilinear between its four
-    ///   lags), both above the zero of unrelated lags; else the prediction was wrong for
-    ///   this window (a coarser pass's window that reached into faster flow, as beside a
-    ///   shear layer), and the peak near it is a ridge of the events that the wrong
-    ///   prediction shears. Below half a pixel rest and motion cannot be told apart, and
-    ///   this test is not made.
+    /// its events, neither shifted nor deformed, correlated over τ and over τ/2 at a few
+    /// single lags ([`direct::correlation_at`]). `Some(LOW_PEAK_RATIO)` when it fails the
+    /// test that applies:
+    /// - **half delay**, without a prediction: a displacement grows with the delay, so over
+    ///   τ/2 the events must correlate at `d/2` at least [`MIN_HALF_DELAY_SUPPORT`] times as
+    ///   well as over τ at `d` (the highest of the four lags around each). A true peak
+    ///   passes easily, as the images decorrelate less over the shorter delay; a peak of
+    ///   chance alignments of particle streaks (a displacement beyond the search radius
+    ///   leaves nothing else) has nothing at half its lag. Around a prediction the plane
+    ///   was made of deformed events, whose undeformed correlation says little in a strong
+    ///   gradient, and the test is not made;
+    /// - **at rest**, around a prediction: over τ and over τ/2 alike, the events must not
+    ///   correlate [`AT_REST_MARGIN`] times better at zero lag than at the best of the four
+    ///   lags around the displacement other than zero lag, both above the zero of unrelated
+    ///   lags. Else the prediction was wrong for this window (a coarser pass's window that
+    ///   reached into faster flow, as beside a shear layer), and the peak near it is a
+    ///   ridge of the events that the wrong prediction shears. Both delays must say so: over
+    ///   the longer one a strong gradient alone may decorrelate the undeformed events, and
+    ///   pixels that fire all through the slab (hot pixels) correlate at rest at any delay.
+    ///   Below half a pixel rest and motion cannot be told apart, and the test is not made.
     fn own_evidence(
         &self,
         slab: &Slab,
@@ -500,24 +505,35 @@ impl SumOfCorrelation {
         let [a, full, half] = runs.map(|(i, first)| scratch.voxels[i].sub_volume(first, slices));
         let shape = scratch.shape;
         let stats = &mut scratch.stats;
-        // The highest correlation of the four lags around `d`, and its bilinear value.
+        // The highest correlation of the four lags around `d`, and the highest of those that
+        // are not zero lag (−∞ if none is).
         let around = |b, d: [f64; 2], stats: &[SliceStats]| {
             let [cx, cy] = d.map(|v| v.floor() as i64);
-            let [fx, fy] = [d[0] - cx as f64, d[1] - cy as f64];
-            let at = |dx, dy| direct::correlation_at(a, b, stats, shape, [cx + dx, cy + dy]);
-            let c = [at(0, 0), at(1, 0), at(0, 1), at(1, 1)];
-            let bilinear =
-                (1.0 - fy) * ((1.0 - fx) * c[0] + fx * c[1]) + fy * ((1.0 - fx) * c[2] + fx * c[3]);
-            (c.into_iter().fold(f64::NEG_INFINITY, f64::max), bilinear)
+            let (mut highest, mut moving) = (f64::NEG_INFINITY, f64::NEG_INFINITY);
+            for [dx, dy] in [[0, 0], [1, 0], [0, 1], [1, 1]].map(|[x, y]| [cx + x, cy + y]) {
+                let c = direct::correlation_at(a, b, stats, shape, [dx, dy]);
+                highest = highest.max(c);
+                if [dx, dy] != [0, 0] {
+                    moving = moving.max(c);
+                }
+            }
+            (highest, moving)
         };
         slice_statistics(a, full, shape, stats);
-        let (highest, bilinear) = around(full, d, stats);
+        let (highest, moving) = around(full, d, stats);
         let rest = direct::correlation_at(a, full, stats, shape, [0, 0]);
         slice_statistics(a, half, shape, stats);
-        let (highest_half, _) = around(half, d.map(|v| v / 2.0), stats);
+        let (highest_half, moving_half) = around(half, d.map(|v| v / 2.0), stats);
+        let rest_half = direct::correlation_at(a, half, stats, shape, [0, 0]);
+        let rests_better =
+            |rest: f64, moving: f64| rest > 0.0 && rest >= AT_REST_MARGIN * moving.max(0.0);
         let moves = d.iter().any(|v| v.abs() >= 0.5);
-        let rests = predicted && moves && rest > 0.0 && rest >= AT_REST_MARGIN * bilinear.max(0.0);
-        let unsupported = highest > 0.0 && highest_half < MIN_HALF_DELAY_SUPPORT * highest;
+        let rests = predicted
+            && moves
+            && rests_better(rest, moving)
+            && rests_better(rest_half, moving_half);
+        let unsupported =
+            !predicted && highest > 0.0 && highest_half < MIN_HALF_DELAY_SUPPORT * highest;
         (rests || unsupported).then_some(Status::LOW_PEAK_RATIO)
     }
 }

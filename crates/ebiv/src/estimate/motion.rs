@@ -266,12 +266,12 @@ impl MotionParams {
 ///
 /// `peak` is the objective's value at the best refined candidate (for [`Objective::Variance`]
 /// the variance over the padded canvas, which depends on the canvas size and so on the
-/// search range). `peak_ratio` plays the role of the correlation peak ratio: with the grid
-/// search, the first-to-second local maximum ratio of the objective over the coarsest full
-/// scan of the range, both measured above the scan's minimum (NaN without a second
-/// maximum); with the Newton search, the first-to-second peak ratio of its event-pair
-/// velocity vote (at least 1.5, or the window falls back to the grid search). The two are
-/// not the same quantity: a `min_peak_ratio` above 1.5 only acts on grid-searched windows.
+/// search range). `peak_ratio` plays the role of the correlation peak ratio: with the Newton
+/// search, the height of the winning maximum of Σ I² over the best value outside its basin
+/// (another maximum, a start, a probe of the background), both above the lowest value seen;
+/// with the grid search, the first-to-second local maximum ratio of the objective over the
+/// coarsest full scan of the range, both measured above the scan's minimum (NaN without a
+/// second maximum).
 #[derive(Debug, Clone)]
 pub struct ContrastMaximization {
     params: MotionParams,

@@ -11,27 +11,27 @@ use std::time::Instant;
 /// The cells of the study; each list restricts it (defaults: the full study, 63 recordings).
 #[derive(Debug, clap::Args)]
 pub struct EnvelopeBenchArgs {
-    /// Estimators: corrsum, motion.
+    /// Estimators, comma-separated: corrsum, motion.
     #[arg(long, value_delimiter = ',', default_values_t = EnvelopeSpec::default().methods)]
     pub methods: Vec<String>,
-    /// Flow speeds, px/ms (uniform flow, 30° from +x).
+    /// Flow speeds, px/ms, comma-separated (uniform flow, 30° from +x).
     #[arg(long, value_delimiter = ',', default_values_t = EnvelopeSpec::default().speeds)]
     pub speeds: Vec<f64>,
-    /// Seeding densities, particles per pixel.
+    /// Seeding densities, particles per pixel, comma-separated.
     #[arg(long, value_delimiter = ',', default_values_t = EnvelopeSpec::default().densities)]
     pub densities: Vec<f64>,
-    /// Final window sizes, px (50 % overlap).
+    /// Final window sizes, px, comma-separated (50 % overlap).
     #[arg(long, value_delimiter = ',', default_values_t = EnvelopeSpec::default().windows)]
     pub windows: Vec<u32>,
-    /// Time slabs T, as `ebiv process --slab` takes them.
+    /// Time slabs T, as `ebiv process --slab` takes them, comma-separated (e.g. 10ms,auto).
     #[arg(long, value_delimiter = ',', default_values_t = EnvelopeSpec::default().slabs)]
     pub slabs: Vec<String>,
-    /// Pass schedules: single (one pass of W px) and default (2W then W px, the last pass
-    /// repeated).
+    /// Pass schedules, comma-separated: single (one pass of W px) and default (2W then W px,
+    /// the last pass repeated).
     #[arg(long, value_delimiter = ',', value_parser = parse_passes,
           default_values_t = EnvelopeSpec::default().passes)]
     pub passes: Vec<PassSchedule>,
-    /// Simulation seeds: one recording per speed, density and seed.
+    /// Simulation seeds, comma-separated: one recording per speed, density and seed.
     #[arg(long, value_delimiter = ',', default_values_t = EnvelopeSpec::default().seeds)]
     pub seeds: Vec<u64>,
     /// Side of the square frame, px.
