@@ -218,7 +218,8 @@ circulation = 1000.0
 core_radius = 25.0"#;
     let (sim, events) = scenario(flow, "40ms", 13);
     let (c, m) = (corrsum(), motion());
-    let runs: [(&str, &dyn Fn(&[(u32, u32)]) -> FieldSeries); 2] = [
+    type Run<'a> = &'a dyn Fn(&[(u32, u32)]) -> FieldSeries;
+    let runs: [(&str, Run); 2] = [
         ("corrsum", &|passes| {
             process(&c, &sim, &events, passes, &FIELD_TIMES)
         }),

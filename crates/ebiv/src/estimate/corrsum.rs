@@ -445,17 +445,17 @@ impl SumOfCorrelation {
 
 impl SumOfCorrelation {
     /// The window's own evidence for the displacement `d` (px over τ) of the peak it found:
-    /// its events, neither shifted nor deformed, correlated over τ and over τ/2 at a few
-    /// single lags ([`direct::correlation_at`]). `Some(LOW_PEAK_RATIO)` when it fails the
-    /// test that applies:
+    /// its events, neither shifted nor deformed, correlated over τ/2 (and, around a
+    /// prediction, over τ) at a few single lags ([`direct::correlations_at`]).
+    /// `Some(LOW_PEAK_RATIO)` when it fails the test that applies:
     /// - **half delay**, without a prediction: a displacement grows with the delay, so over
     ///   τ/2 the events must correlate at `d/2` at least [`MIN_HALF_DELAY_SUPPORT`] times as
-    ///   well as over τ at `d` (the highest of the four lags around each). A true peak
-    ///   passes easily, as the images decorrelate less over the shorter delay; a peak of
-    ///   chance alignments of particle streaks (a displacement beyond the search radius
-    ///   leaves nothing else) has nothing at half its lag. Around a prediction the plane
-    ///   was made of deformed events, whose undeformed correlation says little in a strong
-    ///   gradient, and the test is not made;
+    ///   well as over τ at `d` (the highest of the four lags around each; over τ, the plane
+    ///   itself). A true peak passes easily, as the images decorrelate less over the shorter
+    ///   delay; a peak of chance alignments of particle streaks (a displacement beyond the
+    ///   search radius leaves nothing else) has nothing at half its lag. Around a prediction
+    ///   the plane was made of deformed events, whose undeformed correlation says little in
+    ///   a strong gradient, and the test is not made;
     /// - **at rest**, around a prediction: over τ and over τ/2 alike, the events must not
     ///   correlate [`AT_REST_MARGIN`] times better at zero lag than at the best of the four
     ///   lags around the displacement other than zero lag, both above the zero of unrelated
@@ -477,6 +477,93 @@ impl SumOfCorrelation {
         if d.iter().any(|v| !v.is_finite()) {
             return None;
         }
+        let failed = if predicted {
+            d.iter().any(|v| v.abs() >= 0.5) && self.rests_better(slab, window, t0_us, d, scratch)
+        } else {
+            self.half_delay_unsupported(slab, window, t0_us, d, scratch)
+        };
+        failed.then_some(Status::LOW_PEAK_RATIO)
+    }
+
+    /// The half-delay test of [`SumOfCorrelation::own_evidence`], right after the plane of a
+    /// pass without prediction: S1 (and S2, if one voxelisation holds both) are still in
+    /// `scratch.voxels`, and the plane holds the correlation over τ.
+    fn half_delay_unsupported(
+        &self,
+        slab: &Slab,
+        window: &Window,
+        t0_us: i64,
+        d: [f64; 2],
+        scratch: &mut CorrSumScratch,
+    ) -> bool {
+        let p = &self.params;
+        let slices = p.slices as usize;
+        let shape = scratch.shape;
+        let (pw, ph) = (shape.plane_width(), shape.plane_height());
+        let cell = |[dx, dy]: [i64; 2]| {
+            let col = (shape.rx as i64 + dx).clamp(0, pw as i64 - 1) as usize;
+            let row = (shape.ry as i64 + dy).clamp(0, ph as i64 - 1) as usize;
+            scratch.plane[row * pw + col]
+        };
+        let highest = around(d)
+            .map(cell)
+            .into_iter()
+            .fold(f64::NEG_INFINITY, f64::max);
+        if highest.is_nan() || highest <= 0.0 {
+            return false;
+        }
+        // S1 as the plane's voxelisation left it; S2 after τ/2 from the same voxelisation
+        // where the delay is an even number of slices, else binned into the third voxels.
+        let shared = self.delay_in_slices();
+        let even = shared.filter(|k| k % 2 == 0);
+        if even.is_none() {
+            let start = t0_us - self.half_extent_us() + p.tau_us / 2;
+            let count = p.weighting == Weighting::Count;
+            let bin = (p.slab_us, slices);
+            scratch.bin(
+                slab,
+                window,
+                (start, start + p.slab_us),
+                bin,
+                count,
+                None,
+                None,
+                2,
+            );
+        }
+        let a = match shared {
+            Some(_) => scratch.voxels[0].sub_volume(0, slices),
+            None => scratch.voxels[0].all(),
+        };
+        let half = match even {
+            Some(k) => scratch.voxels[0].sub_volume(k / 2, slices),
+            None => scratch.voxels[2].all(),
+        };
+        let (stats, image) = (&mut scratch.stats, &mut scratch.image);
+        slice_statistics(a, half, shape, stats);
+        let mut values = [0.0; 4];
+        direct::correlations_at(
+            (a, half),
+            stats,
+            shape,
+            &around(d.map(|v| v / 2.0)),
+            image,
+            &mut values,
+        );
+        let highest_half = values.into_iter().fold(f64::NEG_INFINITY, f64::max);
+        highest_half < MIN_HALF_DELAY_SUPPORT * highest
+    }
+
+    /// The at-rest test of [`SumOfCorrelation::own_evidence`]: the window's events, binned
+    /// again neither shifted nor deformed.
+    fn rests_better(
+        &self,
+        slab: &Slab,
+        window: &Window,
+        t0_us: i64,
+        d: [f64; 2],
+        scratch: &mut CorrSumScratch,
+    ) -> bool {
         let p = &self.params;
         let slices = p.slices as usize;
         let count = p.weighting == Weighting::Count;
@@ -504,38 +591,36 @@ impl SumOfCorrelation {
         };
         let [a, full, half] = runs.map(|(i, first)| scratch.voxels[i].sub_volume(first, slices));
         let shape = scratch.shape;
-        let stats = &mut scratch.stats;
-        // The highest correlation of the four lags around `d`, and the highest of those that
-        // are not zero lag (−∞ if none is).
-        let around = |b, d: [f64; 2], stats: &[SliceStats]| {
-            let [cx, cy] = d.map(|v| v.floor() as i64);
-            let (mut highest, mut moving) = (f64::NEG_INFINITY, f64::NEG_INFINITY);
-            for [dx, dy] in [[0, 0], [1, 0], [0, 1], [1, 1]].map(|[x, y]| [cx + x, cy + y]) {
-                let c = direct::correlation_at(a, b, stats, shape, [dx, dy]);
-                highest = highest.max(c);
-                if [dx, dy] != [0, 0] {
-                    moving = moving.max(c);
-                }
-            }
-            (highest, moving)
+        let (stats, image) = (&mut scratch.stats, &mut scratch.image);
+        // Over one delay: zero lag against the best of the lags around `d` other than zero.
+        let mut rests_over = |b, d: [f64; 2]| {
+            slice_statistics(a, b, shape, stats);
+            let [l0, l1, l2, l3] = around(d);
+            let mut values = [0.0; 5];
+            direct::correlations_at(
+                (a, b),
+                stats,
+                shape,
+                &[[0, 0], l0, l1, l2, l3],
+                image,
+                &mut values,
+            );
+            let rest = values[0];
+            let moving = [l0, l1, l2, l3]
+                .iter()
+                .zip(&values[1..])
+                .filter(|(&lag, _)| lag != [0, 0])
+                .fold(f64::NEG_INFINITY, |m, (_, &c)| m.max(c));
+            rest > 0.0 && rest >= AT_REST_MARGIN * moving.max(0.0)
         };
-        slice_statistics(a, full, shape, stats);
-        let (highest, moving) = around(full, d, stats);
-        let rest = direct::correlation_at(a, full, stats, shape, [0, 0]);
-        slice_statistics(a, half, shape, stats);
-        let (highest_half, moving_half) = around(half, d.map(|v| v / 2.0), stats);
-        let rest_half = direct::correlation_at(a, half, stats, shape, [0, 0]);
-        let rests_better =
-            |rest: f64, moving: f64| rest > 0.0 && rest >= AT_REST_MARGIN * moving.max(0.0);
-        let moves = d.iter().any(|v| v.abs() >= 0.5);
-        let rests = predicted
-            && moves
-            && rests_better(rest, moving)
-            && rests_better(rest_half, moving_half);
-        let unsupported =
-            !predicted && highest > 0.0 && highest_half < MIN_HALF_DELAY_SUPPORT * highest;
-        (rests || unsupported).then_some(Status::LOW_PEAK_RATIO)
+        rests_over(full, d) && rests_over(half, d.map(|v| v / 2.0))
     }
+}
+
+/// The four whole-pixel lags around the displacement `d`.
+fn around(d: [f64; 2]) -> [[i64; 2]; 4] {
+    let [x, y] = d.map(|v| v.floor() as i64);
+    [[x, y], [x + 1, y], [x, y + 1], [x + 1, y + 1]]
 }
 
 /// How much better the window's events must correlate at rest than at the displacement
@@ -871,6 +956,8 @@ pub struct CorrSumScratch {
     /// ([`SumOfCorrelation::own_evidence`]).
     voxels: [Voxels; 3],
     stats: Vec<SliceStats>,
+    /// A zeroed grid of the window for [`direct::correlations_at`].
+    image: Vec<f64>,
     plane: Vec<f64>,
     /// The planes of the earlier and the later half of the slices with data.
     halves: [Vec<f64>; 2],
@@ -897,6 +984,7 @@ impl CorrSumScratch {
             voxeliser: Voxeliser::new(shape.w, shape.h),
             voxels: Default::default(),
             stats: Vec::with_capacity(slices as usize),
+            image: vec![0.0; shape.w * shape.h],
             plane: vec![0.0; shape.plane_width() * shape.plane_height()],
             halves: [0, 1].map(|_| vec![0.0; shape.plane_width() * shape.plane_height()]),
             split: false,

@@ -452,60 +452,68 @@ fn index_mask(cells: &[f64]) -> usize {
     cells.len() - 1
 }
 
-/// The normalised correlation of the slices in `stats` at the single lag `[dx, dy]`, the
-/// value [`correlate`] puts in that lag's cell (whatever the search radius): the sum over
-/// the overlap region of the mean-subtracted products, per slice weighted by
-/// `1 / (σ_a σ_b)`, over the overlap area and the number of slices. The voxel pairs at one
-/// lag are found by merging the two row-major voxel lists, `a`'s moved by the lag, so the
-/// cost is linear in the voxels. 0 for a lag with no overlap.
-pub(super) fn correlation_at(
-    a: SubVolume<'_>,
-    b: SubVolume<'_>,
+/// The normalised correlation of the slices in `stats` at each of the lags `lags` (at most
+/// [`MAX_SINGLE_LAGS`]), the values [`correlate`] puts in those lags' cells (whatever the
+/// search radius), into `out`: per lag, the sum over the overlap region of the
+/// mean-subtracted products, per slice weighted by `1 / (σ_a σ_b)`, over the overlap area and
+/// the number of slices; 0 for a lag with no overlap. Each slice of `b` is spread into
+/// `image` (a zeroed `w × h` grid, left zeroed), so that every voxel of `a` finds its partner
+/// at each lag by one lookup: the cost is linear in the voxels and the lags.
+pub(super) fn correlations_at(
+    (a, b): (SubVolume<'_>, SubVolume<'_>),
     stats: &[SliceStats],
     shape: PlaneShape,
-    [dx, dy]: [i64; 2],
-) -> f64 {
+    lags: &[[i64; 2]],
+    image: &mut Vec<f64>,
+    out: &mut [f64],
+) {
     let (w, h) = (shape.w as i64, shape.h as i64);
-    let area = (w - dx.abs()) * (h - dy.abs());
-    if area <= 0 || stats.is_empty() {
-        return 0.0;
-    }
-    // Voxel p of `a` meets voxel p + Δ of `b`; both must lie in the window.
-    let a_inside = |x: i64, y: i64| (0..w).contains(&(x + dx)) && (0..h).contains(&(y + dy));
-    let b_inside = |x: i64, y: i64| (0..w).contains(&(x - dx)) && (0..h).contains(&(y - dy));
-    let value = |v: SubVolume<'_>, i: usize| if v.vox.unit { 1.0 } else { v.vox.v[i] };
-    let mut total = 0.0;
+    let n = lags.len().min(MAX_SINGLE_LAGS);
+    image.resize(shape.w * shape.h, 0.0);
+    let mut total = [0.0; MAX_SINGLE_LAGS];
+    let inside = |x: i64, y: i64| (0..w).contains(&x) && (0..h).contains(&y);
     for s in stats {
         let (ra, rb) = (a.range(s.z), b.range(s.z));
-        let (mut sum_a, mut sum_b, mut sum_ab) = (0.0, 0.0, 0.0);
-        for i in ra.clone() {
-            if a_inside(i64::from(a.vox.x[i]), i64::from(a.vox.y[i])) {
-                sum_a += value(a, i);
-            }
-        }
+        let value = |v: SubVolume<'_>, i: usize| if v.vox.unit { 1.0 } else { v.vox.v[i] };
         for j in rb.clone() {
-            if b_inside(i64::from(b.vox.x[j]), i64::from(b.vox.y[j])) {
-                sum_b += value(b, j);
-            }
+            image[b.vox.y[j] as usize * shape.w + b.vox.x[j] as usize] = value(b, j);
         }
-        // Both lists are sorted by (row, column); moving `a`'s by the lag keeps its order.
-        let key_a = |i: usize| (i64::from(a.vox.y[i]) + dy, i64::from(a.vox.x[i]) + dx);
-        let key_b = |j: usize| (i64::from(b.vox.y[j]), i64::from(b.vox.x[j]));
-        let (mut i, mut j) = (ra.start, rb.start);
-        while i < ra.end && j < rb.end {
-            match key_a(i).cmp(&key_b(j)) {
-                std::cmp::Ordering::Less => i += 1,
-                std::cmp::Ordering::Greater => j += 1,
-                std::cmp::Ordering::Equal => {
-                    sum_ab += value(a, i) * value(b, j);
-                    i += 1;
-                    j += 1;
+        let mut sum_a = [0.0; MAX_SINGLE_LAGS];
+        let mut sum_b = [0.0; MAX_SINGLE_LAGS];
+        let mut sum_ab = [0.0; MAX_SINGLE_LAGS];
+        for i in ra {
+            let (x, y, v) = (i64::from(a.vox.x[i]), i64::from(a.vox.y[i]), value(a, i));
+            for (l, &[dx, dy]) in lags[..n].iter().enumerate() {
+                let (qx, qy) = (x + dx, y + dy);
+                if inside(qx, qy) {
+                    sum_a[l] += v;
+                    sum_ab[l] += v * image[(qy * w + qx) as usize];
                 }
             }
         }
-        let covariance =
-            sum_ab - s.mean_b * sum_a - s.mean_a * sum_b + area as f64 * s.mean_a * s.mean_b;
-        total += s.weight * covariance;
+        for j in rb {
+            let (x, y, v) = (i64::from(b.vox.x[j]), i64::from(b.vox.y[j]), value(b, j));
+            image[y as usize * shape.w + x as usize] = 0.0;
+            for (l, &[dx, dy]) in lags[..n].iter().enumerate() {
+                if inside(x - dx, y - dy) {
+                    sum_b[l] += v;
+                }
+            }
+        }
+        for (l, &[dx, dy]) in lags[..n].iter().enumerate() {
+            let area = ((w - dx.abs()) * (h - dy.abs())).max(0) as f64;
+            let covariance =
+                sum_ab[l] - s.mean_b * sum_a[l] - s.mean_a * sum_b[l] + area * s.mean_a * s.mean_b;
+            if area > 0.0 {
+                total[l] += s.weight * covariance / area;
+            }
+        }
     }
-    total / (area as f64 * stats.len() as f64)
+    let slices = stats.len().max(1) as f64;
+    for (o, t) in out.iter_mut().zip(&total[..n]) {
+        *o = t / slices;
+    }
 }
+
+/// Most lags [`correlations_at`] takes at once.
+pub(super) const MAX_SINGLE_LAGS: usize = 5;

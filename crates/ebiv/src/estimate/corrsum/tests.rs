@@ -86,6 +86,19 @@ fn max_relative_difference(x: &[f64], y: &[f64]) -> f64 {
         .fold(0.0, f64::max)
 }
 
+/// [`direct::correlations_at`] of one lag.
+fn correlation_at(
+    a: SubVolume<'_>,
+    b: SubVolume<'_>,
+    stats: &[SliceStats],
+    shape: PlaneShape,
+    lag: [i64; 2],
+) -> f64 {
+    let mut out = [0.0];
+    direct::correlations_at((a, b), stats, shape, &[lag], &mut Vec::new(), &mut out);
+    out[0]
+}
+
 #[test]
 fn direct_fft_and_definition_agree_on_random_inputs() {
     let mut rng = Rng(7);
@@ -166,12 +179,24 @@ fn direct_fft_and_definition_agree_on_random_inputs() {
         for (iy, row) in direct.chunks(pw).enumerate() {
             for (ix, &cell) in row.iter().enumerate() {
                 let lag = [ix as i64 - rx as i64, iy as i64 - ry as i64];
-                let single = direct::correlation_at(a, b, &stats, shape, lag);
+                let single = correlation_at(a, b, &stats, shape, lag);
                 assert!(
                     (single - cell).abs() < 1e-9 * cell.abs().max(1.0),
                     "case {case}"
                 );
             }
+        }
+        // Several lags at once give what each gives alone (the grid is left zeroed).
+        let lags = [[0, 0], [1, -2], [-3, 1], [2, 2], [-(rx as i64), ry as i64]];
+        let (mut together, mut image) = ([0.0; 5], Vec::new());
+        direct::correlations_at((a, b), &stats, shape, &lags, &mut image, &mut together);
+        assert!(image.iter().all(|&v| v == 0.0), "case {case}");
+        for (lag, value) in lags.iter().zip(together) {
+            assert_eq!(
+                value,
+                correlation_at(a, b, &stats, shape, *lag),
+                "case {case}"
+            );
         }
         if shape.w * shape.h < 500 {
             // The farthest corner of the widest plane (small windows: the dense plane is slow).
@@ -183,14 +208,14 @@ fn direct_fft_and_definition_agree_on_random_inputs() {
             let corner =
                 dense_plane(a, b, &stats, wide)[(wide.plane_height() - 1) * wide.plane_width()];
             let far = [1 - shape.w as i64, shape.h as i64 - 1];
-            let single = direct::correlation_at(a, b, &stats, shape, far);
+            let single = correlation_at(a, b, &stats, shape, far);
             assert!(
                 (single - corner).abs() < 1e-9,
                 "case {case}: {single} vs {corner}"
             );
         }
         assert_eq!(
-            direct::correlation_at(a, b, &stats, shape, [shape.w as i64, 0]),
+            correlation_at(a, b, &stats, shape, [shape.w as i64, 0]),
             0.0
         );
         let mut fft = vec![0.0; pw * ph];

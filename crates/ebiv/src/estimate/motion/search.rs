@@ -471,8 +471,18 @@ impl Search<'_> {
         // a fraction of a pixel, the contrast is about as high anywhere within a pixel per
         // slab of zero, and chance alignments of neighbouring pixels' events place the
         // maximum there.
-        let at_rest = self.squares([0.0; 2], &canvas, s);
         let moves = velocity[0].hypot(velocity[1]) * 2.0 * t_max >= 0.5;
+        let tested_at_rest = self.predicted && !near(velocity, [0.0; 2]);
+        // Zero velocity is one of the candidates without a prediction, and was evaluated
+        // unless it lay in the basin of a maximum found.
+        let at_rest = if moves || tested_at_rest {
+            match samples[..sampled].iter().find(|(v, _)| *v == [0.0; 2]) {
+                Some(&(_, value)) => value,
+                None => self.squares([0.0; 2], &canvas, s),
+            }
+        } else {
+            f64::NAN
+        };
         if moves && pairs(squares - at_rest) < MIN_PEAK_PAIRS {
             return Some(invalid(Status::LOW_PEAK_RATIO, ratio));
         }
@@ -496,7 +506,7 @@ impl Search<'_> {
         // for this window (a coarser pass's window that reached into faster flow), and the
         // maximum near it is a local one: one plain evaluation at zero velocity (which the
         // canvas covers) tells, with the margin a zero maximum needs over a moving one.
-        if self.predicted && !near(velocity, [0.0; 2]) {
+        if tested_at_rest {
             let lowest = seen.lowest.min(at_rest);
             if peak_ratio(at_rest, squares, lowest) >= ZERO_COMPARABLE {
                 return Some(invalid(
