@@ -55,16 +55,24 @@ pub(crate) struct SplatTable {
 }
 
 impl SplatTable {
-    /// Σ w² of one point's splat at the first tabulated sub-pixel position: what a lone
-    /// event adds to Σ I², and half of what a pair of coinciding events adds to it beyond
-    /// two lone ones (`(w + w)² = 2w² + 2w²`), so that a rise of Σ I² counts coinciding
-    /// pairs.
+    /// Σ w² of one point's splat, averaged over its sub-pixel position (the tabulated
+    /// positions; the x and y weights are independent, so the mean of the product is the
+    /// product of the means): what a lone event adds to Σ I², and half of what a pair of
+    /// coinciding events adds to it beyond two lone ones (`(w + w)² = 2w² + 2w²`), so that
+    /// a rise of Σ I² counts coinciding pairs.
     pub fn point_energy(&self) -> f64 {
-        let row: f64 = self.weights[..self.taps]
-            .iter()
-            .map(|&w| f64::from(w) * f64::from(w))
-            .sum();
-        row * row
+        let rows = self.weights.chunks_exact(self.lanes);
+        let count = rows.len().max(1) as f64;
+        let per_axis = rows
+            .map(|row| {
+                row[..self.taps]
+                    .iter()
+                    .map(|&w| f64::from(w) * f64::from(w))
+                    .sum::<f64>()
+            })
+            .sum::<f64>()
+            / count;
+        per_axis * per_axis
     }
 
     /// Panic unless the rows are stored `p` lanes wide, as the kernel about to read them
@@ -1077,6 +1085,44 @@ mod tests {
                 "portable kernel, velocity {velocity:?}"
             );
         }
+    }
+
+    #[test]
+    fn point_energy_is_what_a_pair_of_coinciding_events_adds_beyond_two_lone_ones() {
+        // Bilinear: (1 − f)² + f² averages 2/3 over f per axis.
+        let bilinear = SplatTable::new(Splat::Bilinear).point_energy();
+        assert!((bilinear - 4.0 / 9.0).abs() < 0.01, "{bilinear}");
+        // A normalised Gaussian of σ: ∫ g² = 1 / (4π σ²) in two dimensions.
+        let sigma = 0.8;
+        let gaussian = SplatTable::new(Splat::Gaussian { sigma }).point_energy();
+        let expected = 1.0 / (4.0 * std::f64::consts::PI * sigma * sigma);
+        assert!(
+            (gaussian / expected - 1.0).abs() < 0.03,
+            "{gaussian} vs {expected}"
+        );
+        // Two events at one position raise Σ I² by twice the energy over two far apart.
+        let table = SplatTable::new(Splat::Gaussian { sigma });
+        let canvas = Canvas::covering([32, 32], [0.0, 0.0], 1.0, &table);
+        // A workspace per event set: it keeps what it derived from the events it saw.
+        let squares = |x: [f32; 2]| {
+            let events = Events {
+                x: x.to_vec(),
+                y: vec![10.3; 2],
+                t: vec![0.0; 2],
+            };
+            let mut work = Workspace::default();
+            evaluate(
+                &events,
+                [0.0; 2],
+                &canvas,
+                &table,
+                Objective::SumOfSquares,
+                &mut work,
+            )
+        };
+        let (together, apart) = (squares([10.3, 10.3]), squares([4.3, 20.3]));
+        let rise = (together - apart) / (2.0 * table.point_energy());
+        assert!((rise - 1.0).abs() < 0.03, "{rise} pairs");
     }
 
     #[test]
