@@ -454,17 +454,23 @@ impl SumOfCorrelation {
     ///   itself). A true peak passes easily, as the images decorrelate less over the shorter
     ///   delay; a peak of chance alignments of particle streaks (a displacement beyond the
     ///   search radius leaves nothing else) has nothing at half its lag. Around a prediction
-    ///   the plane was made of deformed events, whose undeformed correlation says little in
-    ///   a strong gradient, and the test is not made;
-    /// - **at rest**, around a prediction: over τ and over τ/2 alike, the events must not
-    ///   correlate [`AT_REST_MARGIN`] times better at zero lag than at the best of the four
-    ///   lags around the displacement other than zero lag, both above the zero of unrelated
-    ///   lags. Else the prediction was wrong for this window (a coarser pass's window that
-    ///   reached into faster flow, as beside a shear layer), and the peak near it is a
-    ///   ridge of the events that the wrong prediction shears. Both delays must say so: over
-    ///   the longer one a strong gradient alone may decorrelate the undeformed events, and
-    ///   pixels that fire all through the slab (hot pixels) correlate at rest at any delay.
-    ///   Below half a pixel rest and motion cannot be told apart, and the test is not made.
+    ///   the plane was made of shifted and usually deformed events, whose unshifted,
+    ///   undeformed correlation says little in a strong gradient, and the test is not made;
+    /// - **at rest**, around a prediction, for a displacement of half a pixel or more: the
+    ///   events must not correlate [`AT_REST_MARGIN`] times better at zero lag than at the
+    ///   best of the four lags around the displacement other than zero lag, both above the
+    ///   zero of unrelated lags. Else the prediction was wrong for this window (a coarser
+    ///   pass's window that reached into faster flow, as beside a shear layer), and the peak
+    ///   near it is a ridge of the events that the wrong prediction shears. Over τ/2 the
+    ///   same must hold at `d/2` where that is a pixel or more from rest: over τ a strong
+    ///   gradient alone may decorrelate the undeformed events. A delay whose lags around the
+    ///   displacement leave less than a quarter of the window overlapping says nothing, and
+    ///   the test is not made. Pixels that fire all through the slab (hot pixels) raise the
+    ///   correlation at rest at both delays, so that many of them in a window can flag a
+    ///   correct prediction.
+    ///
+    /// Over τ/2 a slice of S1 and the matching slice of S2 must not share events: where
+    /// τ/2 is shorter than a slice, only τ is used (the half-delay test passes).
     fn own_evidence(
         &self,
         slab: &Slab,
@@ -478,7 +484,7 @@ impl SumOfCorrelation {
             return None;
         }
         let failed = if predicted {
-            d.iter().any(|v| v.abs() >= 0.5) && self.rests_better(slab, window, t0_us, d, scratch)
+            d[0].hypot(d[1]) >= 0.5 && self.rests_better(slab, window, t0_us, d, scratch)
         } else {
             self.half_delay_unsupported(slab, window, t0_us, d, scratch)
         };
@@ -497,6 +503,9 @@ impl SumOfCorrelation {
         scratch: &mut CorrSumScratch,
     ) -> bool {
         let p = &self.params;
+        if !self.half_delay_spans_a_slice() {
+            return false;
+        }
         let slices = p.slices as usize;
         let shape = scratch.shape;
         let (pw, ph) = (shape.plane_width(), shape.plane_height());
@@ -611,9 +620,31 @@ impl SumOfCorrelation {
                 .zip(&values[1..])
                 .filter(|(&lag, _)| lag != [0, 0])
                 .fold(f64::NEG_INFINITY, |m, (_, &c)| m.max(c));
-            rest > 0.0 && rest >= AT_REST_MARGIN * moving.max(0.0)
+            // Too little overlap at the displacement: the comparison says nothing.
+            let overlap = |[dx, dy]: [i64; 2]| {
+                let share =
+                    |lag: i64, n: usize| (1.0 - lag.unsigned_abs() as f64 / n as f64).max(0.0);
+                share(dx, shape.w) * share(dy, shape.h)
+            };
+            if around(d).into_iter().all(|lag| overlap(lag) < 0.25) {
+                return None;
+            }
+            Some(rest > 0.0 && rest >= AT_REST_MARGIN * moving.max(0.0))
         };
-        rests_over(full, d) && rests_over(half, d.map(|v| v / 2.0))
+        let halved = d.map(|v| v / 2.0);
+        let half_tells = self.half_delay_spans_a_slice() && halved[0].hypot(halved[1]) >= 1.0;
+        match rests_over(full, d) {
+            Some(true) if half_tells => rests_over(half, halved).unwrap_or(true),
+            Some(rests) => rests,
+            None => false,
+        }
+    }
+
+    /// Whether τ/2 is at least one slice long, so that a slice of S1 and the matching slice
+    /// of S2 after τ/2 hold different events.
+    fn half_delay_spans_a_slice(&self) -> bool {
+        let p = &self.params;
+        p.tau_us * i64::from(p.slices) >= 2 * p.slab_us
     }
 }
 
@@ -897,6 +928,8 @@ impl Estimator for SumOfCorrelation {
         let predicted = predictor.is_some();
         if let Some(status) = self.own_evidence(slab, window, t0_us, [dx, dy], predicted, scratch) {
             result.status = status;
+            result.u = f64::NAN;
+            result.v = f64::NAN;
         }
         result
     }

@@ -16,7 +16,8 @@
 //!   its own plane, or about as high, is weak evidence, and a vector whose own evidence is
 //!   weak is not made valid by its neighbours;
 //! - the estimator's own evidence tests pass (sum of correlation flags a peak with too few
-//!   coincident voxel pairs, too little contrast or one half of its slices not showing it:
+//!   coincident voxel pairs, too little contrast, one half of its slices not showing it, or
+//!   the window's unshifted events correlating far better at rest:
 //!   `docs/process.md`, "Evidence of a sum-of-correlation peak"),
 //! - it passes the per-vector tests
 //!   ([`crate::validate::ValidationParams::vector_test`]) and the median test against the

@@ -468,6 +468,7 @@ pub(super) fn correlations_at(
     out: &mut [f64],
 ) {
     let (w, h) = (shape.w as i64, shape.h as i64);
+    debug_assert!(lags.len() <= MAX_SINGLE_LAGS && out.len() >= lags.len());
     let n = lags.len().min(MAX_SINGLE_LAGS);
     image.resize(shape.w * shape.h, 0.0);
     let mut total = [0.0; MAX_SINGLE_LAGS];
@@ -501,7 +502,7 @@ pub(super) fn correlations_at(
             }
         }
         for (l, &[dx, dy]) in lags[..n].iter().enumerate() {
-            let area = ((w - dx.abs()) * (h - dy.abs())).max(0) as f64;
+            let area = ((w - dx.abs()).max(0) * (h - dy.abs()).max(0)) as f64;
             let covariance =
                 sum_ab[l] - s.mean_b * sum_a[l] - s.mean_a * sum_b[l] + area * s.mean_a * s.mean_b;
             if area > 0.0 {

@@ -214,10 +214,11 @@ fn direct_fft_and_definition_agree_on_random_inputs() {
                 "case {case}: {single} vs {corner}"
             );
         }
-        assert_eq!(
-            correlation_at(a, b, &stats, shape, [shape.w as i64, 0]),
-            0.0
-        );
+        // Lags without overlap, on one axis or on both.
+        let (w, h) = (shape.w as i64, shape.h as i64);
+        for lag in [[w, 0], [0, -h], [w + 1, h + 1], [-w - 3, h]] {
+            assert_eq!(correlation_at(a, b, &stats, shape, lag), 0.0, "{lag:?}");
+        }
         let mut fft = vec![0.0; pw * ph];
         Fourier::new(shape).correlate(a, b, &stats, &overlap, &mut fft);
         let dense = dense_plane(a, b, &stats, shape);
