@@ -527,23 +527,9 @@ impl SumOfCorrelation {
         let even = shared.filter(|k| k % 2 == 0);
         if even.is_none() {
             let start = t0_us - self.half_extent_us() + p.tau_us / 2;
-            let count = p.weighting == Weighting::Count;
-            let bin = (p.slab_us, slices);
-            scratch.bin(
-                slab,
-                window,
-                (start, start + p.slab_us),
-                bin,
-                count,
-                None,
-                None,
-                2,
-            );
+            self.bin_undeformed(slab, window, start, 2, scratch);
         }
-        let a = match shared {
-            Some(_) => scratch.voxels[0].sub_volume(0, slices),
-            None => scratch.voxels[0].all(),
-        };
+        let (a, _) = sub_volumes(&scratch.voxels, shared, slices);
         let half = match even {
             Some(k) => scratch.voxels[0].sub_volume(k / 2, slices),
             None => scratch.voxels[2].all(),
@@ -591,9 +577,7 @@ impl SumOfCorrelation {
                     .into_iter()
                     .enumerate()
                 {
-                    let times = (start, start + p.slab_us);
-                    let bin = (p.slab_us, slices);
-                    scratch.bin(slab, window, times, bin, count, None, None, into);
+                    self.bin_undeformed(slab, window, start, into, scratch);
                 }
                 [(0, 0), (1, 0), (2, 0)]
             }
@@ -603,8 +587,18 @@ impl SumOfCorrelation {
         let (stats, image) = (&mut scratch.stats, &mut scratch.image);
         // Over one delay: zero lag against the best of the lags around `d` other than zero.
         let mut rests_over = |b, d: [f64; 2]| {
+            // Too little overlap at the displacement: the comparison says nothing.
+            let overlap = |[dx, dy]: [i64; 2]| {
+                let share =
+                    |lag: i64, n: usize| (1.0 - lag.unsigned_abs() as f64 / n as f64).max(0.0);
+                share(dx, shape.w) * share(dy, shape.h)
+            };
+            let lags = around(d);
+            if lags.into_iter().all(|lag| overlap(lag) < 0.25) {
+                return None;
+            }
             slice_statistics(a, b, shape, stats);
-            let [l0, l1, l2, l3] = around(d);
+            let [l0, l1, l2, l3] = lags;
             let mut values = [0.0; 5];
             direct::correlations_at(
                 (a, b),
@@ -615,20 +609,11 @@ impl SumOfCorrelation {
                 &mut values,
             );
             let rest = values[0];
-            let moving = [l0, l1, l2, l3]
+            let moving = lags
                 .iter()
                 .zip(&values[1..])
                 .filter(|(&lag, _)| lag != [0, 0])
                 .fold(f64::NEG_INFINITY, |m, (_, &c)| m.max(c));
-            // Too little overlap at the displacement: the comparison says nothing.
-            let overlap = |[dx, dy]: [i64; 2]| {
-                let share =
-                    |lag: i64, n: usize| (1.0 - lag.unsigned_abs() as f64 / n as f64).max(0.0);
-                share(dx, shape.w) * share(dy, shape.h)
-            };
-            if around(d).into_iter().all(|lag| overlap(lag) < 0.25) {
-                return None;
-            }
             Some(rest > 0.0 && rest >= AT_REST_MARGIN * moving.max(0.0))
         };
         let halved = d.map(|v| v / 2.0);
@@ -638,6 +623,22 @@ impl SumOfCorrelation {
             Some(rests) => rests,
             None => false,
         }
+    }
+
+    /// Bin the window's events of one sub-volume from `start`, neither shifted nor deformed,
+    /// into `scratch.voxels[into]`.
+    fn bin_undeformed(
+        &self,
+        slab: &Slab,
+        window: &Window,
+        start: i64,
+        into: usize,
+        scratch: &mut CorrSumScratch,
+    ) {
+        let p = &self.params;
+        let count = p.weighting == Weighting::Count;
+        let (times, bin) = ((start, start + p.slab_us), (p.slab_us, p.slices as usize));
+        scratch.bin(slab, window, times, bin, count, None, None, into);
     }
 
     /// Whether τ/2 is at least one slice long, so that a slice of S1 and the matching slice
