@@ -358,18 +358,17 @@ fn read_field_rows(
 ) -> std::collections::BTreeMap<(String, String), FieldRow> {
     let text = std::fs::read_to_string(path).unwrap();
     let mut lines = text.lines();
-    assert!(lines
-        .next()
-        .unwrap()
-        .starts_with("t_us,x_px,y_px,u_px_ms,v_px_ms,status,peak,peak_ratio"));
+    assert!(lines.next().unwrap().starts_with(
+        "t_us,x_px,y_px,u_px_ms,v_px_ms,u_unc_px_ms,v_unc_px_ms,status,peak,peak_ratio"
+    ));
     lines
         .map(|l| {
             let f: Vec<&str> = l.split(',').collect();
             let row = FieldRow {
                 u: f[3].parse().unwrap(),
                 v: f[4].parse().unwrap(),
-                status: f[5].parse().unwrap(),
-                peak_ratio: f[7].parse().unwrap(),
+                status: f[7].parse().unwrap(),
+                peak_ratio: f[9].parse().unwrap(),
             };
             ((f[1].to_string(), f[2].to_string()), row)
         })
@@ -706,8 +705,8 @@ fn wall_flow_netcdf_has_a_cf_time_axis_and_plain_attributes() {
     );
 }
 
-/// The truth of `ebiv simulate --truth` holds the flow's velocity only: no status, quality or
-/// slab variables, which a sampled flow does not have, in NetCDF and in CSV.
+/// The truth of `ebiv simulate --truth` holds the flow's velocity only: no uncertainty,
+/// status, quality or slab variables, which a sampled flow does not have, in NetCDF and in CSV.
 #[test]
 fn simulated_truth_has_no_quality_variables() {
     let dir = tempfile::tempdir().unwrap();
@@ -727,7 +726,15 @@ fn simulated_truth_has_no_quality_variables() {
         assert!(out.status.success(), "{}", stderr(&out));
     }
     let (ds, _) = netcdf3::FileReader::open(path("truth.nc")).unwrap().close();
-    for var in ["status", "peak", "peak_ratio", "event_count", "slab_us"] {
+    for var in [
+        "u_unc",
+        "v_unc",
+        "status",
+        "peak",
+        "peak_ratio",
+        "event_count",
+        "slab_us",
+    ] {
         assert!(!ds.has_var(var), "{var}");
     }
     assert!(ds.has_var("u") && ds.has_var("v"));
@@ -748,7 +755,7 @@ fn valid_vectors(path: &std::path::Path) -> (Vec<(f64, f64)>, usize) {
         .collect();
     let valid = rows
         .iter()
-        .filter(|f| f[5] == "0")
+        .filter(|f| f[7] == "0")
         .map(|f| (f[3].parse().unwrap(), f[4].parse().unwrap()))
         .collect();
     (valid, rows.len())
@@ -845,10 +852,18 @@ fn process_writes_the_slab_of_every_vector() {
         let header: Vec<&str> = lines.next().unwrap().split(',').collect();
         let at = |name: &str| header.iter().position(|&h| h == name).unwrap();
         assert_eq!(at("slab_us"), at("event_count") + 1, "{header:?}");
+        // The uncertainty columns follow the velocity.
+        assert_eq!(at("u_unc_px_ms"), at("v_px_ms") + 1, "{header:?}");
+        assert_eq!(at("v_unc_px_ms"), at("v_px_ms") + 2, "{header:?}");
         let rows: Vec<Vec<&str>> = lines.map(|l| l.split(',').collect()).collect();
         assert!(rows.len() >= 6, "{method}: {} vectors", rows.len());
         for row in &rows {
             assert_eq!(row[at("slab_us")], "7000", "{method}: {row:?}");
+            // An invalid vector has no uncertainty.
+            if row[at("status")] != "0" {
+                assert_eq!(row[at("u_unc_px_ms")], "NaN", "{method}: {row:?}");
+                assert_eq!(row[at("v_unc_px_ms")], "NaN", "{method}: {row:?}");
+            }
         }
         // Valid vectors among them, so the value is not only that of empty windows.
         assert!(rows.iter().any(|r| r[at("status")] == "0"), "{method}");

@@ -7,9 +7,9 @@ use common::{data, ebiv, stderr, stdout};
 use std::path::Path;
 
 /// The first columns of a field CSV of image pairs (displacements, indexed fields).
-const IMAGE_PAIR_COLUMNS: &str = "field,x_px,y_px,u_px,v_px,status";
+const IMAGE_PAIR_COLUMNS: &str = "field,x_px,y_px,u_px,v_px,u_unc_px,v_unc_px,status";
 /// The first columns of a field CSV of velocities in camera time.
-const EVENT_COLUMNS: &str = "t_us,x_px,y_px,u_px_ms,v_px_ms,status";
+const EVENT_COLUMNS: &str = "t_us,x_px,y_px,u_px_ms,v_px_ms,u_unc_px_ms,v_unc_px_ms,status";
 
 /// Rows of a field CSV as (x, y, u, v, status), after checking that the header starts with
 /// `columns`.
@@ -26,7 +26,7 @@ fn read_csv(path: &Path, columns: &str) -> Vec<(f64, f64, f64, f64, u32)> {
                 c[2].parse().unwrap(),
                 c[3].parse().unwrap(),
                 c[4].parse().unwrap(),
-                c[5].parse().unwrap(),
+                c[7].parse().unwrap(),
             )
         })
         .collect()

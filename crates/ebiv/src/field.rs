@@ -1,5 +1,6 @@
 //! Vector fields on a regular grid: one field ([`VectorField`]) and a time series of them
-//! ([`FieldSeries`]), with per-vector [`Status`] flags and an optional [`Calibration`].
+//! ([`FieldSeries`]), with per-vector [`Status`] flags, per-vector standard uncertainties and
+//! an optional [`Calibration`].
 //!
 //! Image coordinates (x right, y down, pixel centres at integers), velocities in px/ms,
 //! invalid vectors NaN with a status saying why; never a zero vector for missing data.
@@ -96,6 +97,8 @@ impl std::ops::BitOr for Status {
 /// With `mm_per_px` millimetres per pixel, 1 px/ms is `mm_per_px` mm/ms, i.e. `mm_per_px`
 /// m/s. `origin_px` is the image point that becomes (0, 0) mm. With `y_up` the physical y
 /// axis points up: positions and the v component both change sign, never only one of them.
+/// An uncertainty is a spread, not a direction: it converts by the scale only and never
+/// changes sign.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Calibration {
     /// Millimetres per pixel.
@@ -142,6 +145,14 @@ impl Calibration {
         let v = v * s;
         (u * s, if self.y_up { -v } else { v })
     }
+
+    /// Physical standard uncertainty (m/s) of an image velocity's uncertainty (px/ms):
+    /// scaled by `mm_per_px`, never flipped (`y_up` changes the sign of v, not its spread).
+    /// The same scale converts an uncertainty of a displacement from px to mm.
+    pub fn uncertainty_m_per_s(&self, u_unc: f32, v_unc: f32) -> (f32, f32) {
+        let s = self.mm_per_px as f32;
+        (u_unc * s, v_unc * s)
+    }
 }
 
 /// One vector field on a regular grid, arrays indexed `[row][column]`.
@@ -155,6 +166,12 @@ pub struct VectorField {
     pub u: Vec<f32>,
     /// y velocity (positive down), px/ms.
     pub v: Vec<f32>,
+    /// Standard uncertainty (one standard deviation) of `u`, in the unit of `u`; NaN where
+    /// unknown, and for invalid and replaced vectors.
+    pub u_unc: Vec<f32>,
+    /// Standard uncertainty (one standard deviation) of `v`, in the unit of `v`; NaN where
+    /// unknown, and for invalid and replaced vectors.
+    pub v_unc: Vec<f32>,
     /// Status flags (bits of [`Status`]).
     pub status: Vec<Status>,
     /// Peak value of the correlation plane or objective.
@@ -179,6 +196,8 @@ impl VectorField {
             y,
             u: vec![f32::NAN; n],
             v: vec![f32::NAN; n],
+            u_unc: vec![f32::NAN; n],
+            v_unc: vec![f32::NAN; n],
             status: vec![Status::NO_EVENTS; n],
             peak: vec![f32::NAN; n],
             peak_ratio: vec![f32::NAN; n],
@@ -201,10 +220,13 @@ impl VectorField {
     }
 
     /// Multiply every vector by `factor` (e.g. displacements in px by 1/Δt in ms to get
-    /// px/ms); NaN stays NaN.
+    /// px/ms) and its uncertainty by |`factor`|; NaN stays NaN.
     pub fn scale(&mut self, factor: f64) {
         for w in self.u.iter_mut().chain(self.v.iter_mut()) {
             *w = (*w as f64 * factor) as f32;
+        }
+        for w in self.u_unc.iter_mut().chain(self.v_unc.iter_mut()) {
+            *w = (*w as f64 * factor.abs()) as f32;
         }
     }
 
@@ -234,10 +256,12 @@ impl VectorField {
         self.u.is_empty()
     }
 
-    /// Mark vector `i` invalid for `reason`: NaN velocity, flag added.
+    /// Mark vector `i` invalid for `reason`: NaN velocity and uncertainty, flag added.
     pub fn invalidate(&mut self, i: usize, reason: Status) {
         self.u[i] = f32::NAN;
         self.v[i] = f32::NAN;
+        self.u_unc[i] = f32::NAN;
+        self.v_unc[i] = f32::NAN;
         self.status[i] = self.status[i].with(reason);
     }
 
@@ -401,6 +425,12 @@ pub struct FieldSeries {
     pub u: Vec<f32>,
     /// y velocity (positive down), px/ms, indexed `[t][y][x]`.
     pub v: Vec<f32>,
+    /// Standard uncertainty (one standard deviation) of `u`, in the unit of `u`; NaN where
+    /// unknown, and for invalid and replaced vectors; indexed `[t][y][x]`.
+    pub u_unc: Vec<f32>,
+    /// Standard uncertainty (one standard deviation) of `v`, in the unit of `v`; NaN where
+    /// unknown, and for invalid and replaced vectors; indexed `[t][y][x]`.
+    pub v_unc: Vec<f32>,
     /// Status flags, indexed `[t][y][x]`.
     pub status: Vec<Status>,
     /// Peak value of the correlation plane or objective, indexed `[t][y][x]`.
@@ -434,9 +464,9 @@ pub struct FieldSeries {
     /// count from: the first event of the recording, or 0 when they were given in camera time.
     /// Written next to the time axis so that the two can be related; `None` when unknown.
     pub time_origin_us: Option<i64>,
-    /// The series is a ground truth (a simulation's flow sampled on a grid): `status`, `peak`,
-    /// `peak_ratio`, `event_count` and `slab_us` carry no information and the writers leave
-    /// them out.
+    /// The series is a ground truth (a simulation's flow sampled on a grid): `u_unc`,
+    /// `v_unc` (NaN), `status`, `peak`, `peak_ratio`, `event_count` and `slab_us` carry no
+    /// information and the writers leave them out.
     pub ground_truth: bool,
     /// Descriptive attributes written into every output: the source and the processing
     /// settings. The writers add the software, units, axis convention, time basis and
@@ -454,6 +484,8 @@ impl FieldSeries {
             t_us,
             u: vec![f32::NAN; n],
             v: vec![f32::NAN; n],
+            u_unc: vec![f32::NAN; n],
+            v_unc: vec![f32::NAN; n],
             status: vec![Status::NO_EVENTS; n],
             peak: vec![f32::NAN; n],
             peak_ratio: vec![f32::NAN; n],
@@ -501,6 +533,8 @@ impl FieldSeries {
         self.t_us.push(t_us);
         self.u.extend_from_slice(&field.u);
         self.v.extend_from_slice(&field.v);
+        self.u_unc.extend_from_slice(&field.u_unc);
+        self.v_unc.extend_from_slice(&field.v_unc);
         self.status.extend_from_slice(&field.status);
         self.peak.extend_from_slice(&field.peak);
         self.peak_ratio.extend_from_slice(&field.peak_ratio);
@@ -518,6 +552,8 @@ impl FieldSeries {
             y: self.y.clone(),
             u: self.u[r.clone()].to_vec(),
             v: self.v[r.clone()].to_vec(),
+            u_unc: self.u_unc[r.clone()].to_vec(),
+            v_unc: self.v_unc[r.clone()].to_vec(),
             status: self.status[r.clone()].to_vec(),
             peak: self.peak[r.clone()].to_vec(),
             peak_ratio: self.peak_ratio[r.clone()].to_vec(),
@@ -580,6 +616,12 @@ mod tests {
         assert!((c.y_mm(80.0) - 1.0).abs() < 1e-12);
         let (u, v) = c.velocity_m_per_s(2.0, 4.0);
         assert!((u - 0.1).abs() < 1e-6 && (v + 0.2).abs() < 1e-6);
+        // An uncertainty is scaled, never flipped.
+        let (u_unc, v_unc) = c.uncertainty_m_per_s(0.2, 0.4);
+        assert!((u_unc - 0.01).abs() < 1e-7 && (v_unc - 0.02).abs() < 1e-7);
+        let down = Calibration { y_up: false, ..c };
+        assert_eq!(down.uncertainty_m_per_s(0.2, 0.4), (u_unc, v_unc));
+        assert!(c.uncertainty_m_per_s(f32::NAN, 0.4).0.is_nan());
         assert!(Calibration {
             mm_per_px: 0.0,
             ..c
@@ -601,6 +643,35 @@ mod tests {
             .unwrap();
         assert_eq!(s.slab_us, vec![7000, 0, 7000, 0, 0, 0]);
         assert_eq!(s.field(0).slab_us, f.slab_us);
+    }
+
+    #[test]
+    fn uncertainties_are_carried_scaled_by_the_magnitude_and_cleared_when_invalid() {
+        let mut f = VectorField::new(vec![0.0, 1.0, 2.0], vec![0.0]);
+        assert!(f.u_unc.iter().chain(&f.v_unc).all(|x| x.is_nan()));
+        f.u = vec![1.0, 2.0, 3.0];
+        f.v = vec![-1.0, -2.0, -3.0];
+        f.u_unc = vec![0.1, 0.2, f32::NAN];
+        f.v_unc = vec![0.3, 0.4, f32::NAN];
+        f.status = vec![Status::VALID; 3];
+        // A negative factor flips the vectors but not the spread of their errors.
+        f.scale(-2.0);
+        assert_eq!(f.u[..2], [-2.0, -4.0]);
+        assert_eq!(f.u_unc[..2], [0.2, 0.4]);
+        assert_eq!(f.v_unc[..2], [0.6, 0.8]);
+        assert!(f.u_unc[2].is_nan());
+        f.invalidate(1, Status::MEDIAN_TEST);
+        assert!(f.u_unc[1].is_nan() && f.v_unc[1].is_nan());
+        let mut s = FieldSeries::on_grid(f.x.clone(), f.y.clone());
+        s.push(0, &VectorField::new(f.x.clone(), f.y.clone()))
+            .unwrap();
+        s.push(1, &f).unwrap();
+        assert_eq!(s.u_unc.len(), 6);
+        assert_eq!(s.u_unc[3], 0.2);
+        assert_eq!(s.v_unc[3], 0.6);
+        let back = s.field(1);
+        assert_eq!((back.u_unc[0], back.v_unc[0]), (0.2, 0.6));
+        assert!(back.u_unc[1].is_nan() && back.v_unc[2].is_nan());
     }
 
     #[test]

@@ -1,7 +1,8 @@
 //! Field writers: every format written and read back (NetCDF with the netcdf3 reader, CSV,
 //! NPZ through zip and the .npy header, Tecplot and VTK by parsing), checking values,
-//! shapes, NaN, status flags, the per-vector time slab `slab_us` and the calibration's sign
-//! convention (y up flips y and v).
+//! shapes, NaN, status flags, the per-vector time slab `slab_us`, the per-vector standard
+//! uncertainty `u_unc`, `v_unc` and the calibration's sign convention (y up flips y and v,
+//! never an uncertainty).
 
 use ebiv::export::{
     vtk_series_paths, write_field, write_field_csv, write_field_netcdf, write_field_npz,
@@ -21,6 +22,8 @@ fn series(calibrated: bool) -> FieldSeries {
     for i in 0..f.u.len() {
         f.u[i] = 0.25 + 0.5 * i as f32;
         f.v[i] = 1.0 - 0.75 * i as f32;
+        f.u_unc[i] = 0.01 + 0.002 * i as f32;
+        f.v_unc[i] = 0.03 + 0.001 * i as f32;
         f.status[i] = Status::VALID;
         f.peak[i] = 10.0 + i as f32;
         f.peak_ratio[i] = 1.25 + i as f32 / 8.0;
@@ -41,6 +44,12 @@ fn series(calibrated: bool) -> FieldSeries {
     let c = f.index(1, 1, 0);
     f.u[c] = f32::NAN;
     f.v[c] = f32::NAN;
+    // Invalid and replaced vectors have no uncertainty; (t 0, row 0, col 0) is valid with
+    // an unknown one.
+    for k in [a, b, c, f.index(0, 0, 0)] {
+        f.u_unc[k] = f32::NAN;
+        f.v_unc[k] = f32::NAN;
+    }
     f.status[c] = Status::LOW_PEAK_RATIO | Status::MASKED;
     f.slab_us[c] = 0;
     f.attributes
@@ -71,6 +80,17 @@ fn expected(f: &FieldSeries, t: usize, row: usize, col: usize) -> [f64; 4] {
     } else {
         [x, y, u, v]
     }
+}
+
+/// Expected written uncertainty `(u_unc, v_unc)` of vector `i`: scaled to m/s by the
+/// calibration, never flipped.
+fn expected_unc(f: &FieldSeries, i: usize) -> [f64; 2] {
+    let scale = if f.calibration.is_some() {
+        MM_PER_PX
+    } else {
+        1.0
+    };
+    [f.u_unc[i] as f64 * scale, f.v_unc[i] as f64 * scale]
 }
 
 /// `a` equals `b` to single precision, NaN matching NaN.
@@ -125,14 +145,23 @@ fn netcdf_round_trip() {
         } else {
             "pixel/millisecond"
         };
+        for var in ["v", "u_unc", "v_unc"] {
+            assert_eq!(
+                ds.get_var_attr_as_string(var, "units").as_deref(),
+                Some(units),
+                "{var}"
+            );
+        }
         assert_eq!(
-            ds.get_var_attr_as_string("v", "units").as_deref(),
-            Some(units)
+            ds.get_var_attr_as_string("u_unc", "long_name").as_deref(),
+            Some("standard uncertainty of u (one standard deviation)")
         );
         let mut r = netcdf3::FileReader::open(&path).unwrap();
         assert_eq!(r.read_var_f64("time").unwrap(), vec![1_000.0, 3_500.0]);
         let (x, y) = (r.read_var_f64("x").unwrap(), r.read_var_f64("y").unwrap());
         let (u, v) = (r.read_var_f32("u").unwrap(), r.read_var_f32("v").unwrap());
+        let u_unc = r.read_var_f32("u_unc").unwrap();
+        let v_unc = r.read_var_f32("v_unc").unwrap();
         let status = r.read_var_i16("status").unwrap();
         let peak = r.read_var_f32("peak").unwrap();
         let ratio = r.read_var_f32("peak_ratio").unwrap();
@@ -144,6 +173,9 @@ fn netcdf_round_trip() {
             assert_same("y", y[row], e[1]);
             assert_same("u", u[i] as f64, e[2]);
             assert_same("v", v[i] as f64, e[3]);
+            let e_unc = expected_unc(&f, i);
+            assert_same("u_unc", u_unc[i] as f64, e_unc[0]);
+            assert_same("v_unc", v_unc[i] as f64, e_unc[1]);
             assert_eq!(status[i], f.status[i].0 as i16);
             assert_same("peak", peak[i] as f64, f.peak[i] as f64);
             assert_same("peak_ratio", ratio[i] as f64, f.peak_ratio[i] as f64);
@@ -177,13 +209,15 @@ fn csv_round_trip() {
         let mut lines = text.lines();
         let header: Vec<&str> = lines.next().unwrap().split(',').collect();
         assert_eq!(
-            &header[..10],
+            &header[..12],
             [
                 "t_us",
                 "x_px",
                 "y_px",
                 "u_px_ms",
                 "v_px_ms",
+                "u_unc_px_ms",
+                "v_unc_px_ms",
                 "status",
                 "peak",
                 "peak_ratio",
@@ -192,9 +226,12 @@ fn csv_round_trip() {
             ]
         );
         if calibrated {
-            assert_eq!(&header[10..], ["x_mm", "y_mm", "u_m_s", "v_m_s"]);
+            assert_eq!(
+                &header[12..],
+                ["x_mm", "y_mm", "u_m_s", "v_m_s", "u_unc_m_s", "v_unc_m_s"]
+            );
         } else {
-            assert_eq!(header.len(), 10);
+            assert_eq!(header.len(), 12);
         }
         let rows: Vec<Vec<f64>> = lines
             .map(|l| l.split(',').map(|s| s.parse::<f64>().unwrap()).collect())
@@ -207,19 +244,22 @@ fn csv_round_trip() {
             assert_eq!([r[1], r[2]], [f.x[col], f.y[row]]);
             assert_same("u", r[3], f.u[i] as f64);
             assert_same("v", r[4], f.v[i] as f64);
-            assert_eq!(r[5], f.status[i].0 as f64);
-            assert_same("peak", r[6], f.peak[i] as f64);
-            assert_same("peak_ratio", r[7], f.peak_ratio[i] as f64);
-            assert_eq!(r[8], f.event_count[i] as f64);
-            assert_eq!(r[9], f.slab_us[i] as f64);
+            assert_same("u_unc", r[5], f.u_unc[i] as f64);
+            assert_same("v_unc", r[6], f.v_unc[i] as f64);
+            assert_eq!(r[7], f.status[i].0 as f64);
+            assert_same("peak", r[8], f.peak[i] as f64);
+            assert_same("peak_ratio", r[9], f.peak_ratio[i] as f64);
+            assert_eq!(r[10], f.event_count[i] as f64);
+            assert_eq!(r[11], f.slab_us[i] as f64);
             if calibrated {
                 let e = expected(&f, t, row, col);
-                for k in 0..4 {
-                    assert_same(header[10 + k], r[10 + k], e[k]);
+                let e_unc = expected_unc(&f, i);
+                for (k, want) in e.into_iter().chain(e_unc).enumerate() {
+                    assert_same(header[12 + k], r[12 + k], want);
                 }
             }
         }
-        assert!(text.contains(",NaN,NaN,1,NaN,NaN,0,75000"));
+        assert!(text.contains(",NaN,NaN,NaN,NaN,1,NaN,NaN,0,75000"));
     }
 }
 
@@ -333,6 +373,8 @@ fn npz_round_trip() {
         for name in [
             "u",
             "v",
+            "u_unc",
+            "v_unc",
             "status",
             "peak",
             "peak_ratio",
@@ -342,6 +384,7 @@ fn npz_round_trip() {
             assert_eq!(a[name].shape, grid, "{name}");
         }
         let (u, v) = (a["u"].f32s(), a["v"].f32s());
+        let (u_unc, v_unc) = (a["u_unc"].f32s(), a["v_unc"].f32s());
         let (peak, ratio) = (a["peak"].f32s(), a["peak_ratio"].f32s());
         assert_eq!(a["status"].descr, "|u1");
         let status = &a["status"].data;
@@ -350,6 +393,8 @@ fn npz_round_trip() {
         for (_, _, _, i) in each_vector(&f) {
             assert_same("u", u[i] as f64, f.u[i] as f64);
             assert_same("v", v[i] as f64, f.v[i] as f64);
+            assert_same("u_unc", u_unc[i] as f64, f.u_unc[i] as f64);
+            assert_same("v_unc", v_unc[i] as f64, f.v_unc[i] as f64);
             assert_same("peak", peak[i] as f64, f.peak[i] as f64);
             assert_same("peak_ratio", ratio[i] as f64, f.peak_ratio[i] as f64);
             assert_eq!(status[i], f.status[i].0);
@@ -364,16 +409,24 @@ fn npz_round_trip() {
             assert!(attributes.contains(&"y_positive=up".to_string()));
             let (x, y) = (a["x_mm"].f64s(), a["y_mm"].f64s());
             let (um, vm) = (a["u_m_s"].f32s(), a["v_m_s"].f32s());
-            assert_eq!(a["u_m_s"].shape, grid);
+            let (uu, vu) = (a["u_unc_m_s"].f32s(), a["v_unc_m_s"].f32s());
+            for name in ["u_m_s", "v_m_s", "u_unc_m_s", "v_unc_m_s"] {
+                assert_eq!(a[name].shape, grid, "{name}");
+            }
             for (t, row, col, i) in each_vector(&f) {
                 let e = expected(&f, t, row, col);
+                let e_unc = expected_unc(&f, i);
                 assert_same("x_mm", x[col], e[0]);
                 assert_same("y_mm", y[row], e[1]);
                 assert_same("u_m_s", um[i] as f64, e[2]);
                 assert_same("v_m_s", vm[i] as f64, e[3]);
+                assert_same("u_unc_m_s", uu[i] as f64, e_unc[0]);
+                assert_same("v_unc_m_s", vu[i] as f64, e_unc[1]);
             }
         } else {
-            assert!(!a.contains_key("x_mm") && !a.contains_key("u_m_s"));
+            for name in ["x_mm", "u_m_s", "u_unc_m_s", "v_unc_m_s"] {
+                assert!(!a.contains_key(name), "{name}");
+            }
         }
     }
 }
@@ -393,7 +446,8 @@ fn tecplot_round_trip() {
         let vunit = if calibrated { "m/s" } else { "px/ms" };
         let variables = format!(
             "VARIABLES = \"x [{unit}]\" \"y [{unit}]\" \"u [{vunit}]\" \"v [{vunit}]\" \
-             \"status\" \"peak\" \"peak_ratio\" \"event_count\" \"slab_us\""
+             \"u_unc [{vunit}]\" \"v_unc [{vunit}]\" \"status\" \"peak\" \"peak_ratio\" \
+             \"event_count\" \"slab_us\""
         );
         assert!(text.lines().any(|l| l == variables), "{text}");
         assert!(text.contains("DATASETAUXDATA source_file=\"recording \\\"A\\\".raw\""));
@@ -422,15 +476,21 @@ fn tecplot_round_trip() {
                 let i = f.index(t, row, col);
                 let e = expected(&f, t, row, col);
                 let missing = |want: f64| if want.is_nan() { TECPLOT_MISSING } else { want };
-                assert_eq!(p.len(), 9);
-                for (j, name) in ["x", "y", "u", "v"].iter().enumerate() {
-                    assert_same(name, p[j], missing(e[j]));
+                assert_eq!(p.len(), 11);
+                let e_unc = expected_unc(&f, i);
+                let values = e.into_iter().chain(e_unc);
+                for (j, (name, want)) in ["x", "y", "u", "v", "u_unc", "v_unc"]
+                    .iter()
+                    .zip(values)
+                    .enumerate()
+                {
+                    assert_same(name, p[j], missing(want));
                 }
-                assert_eq!(p[4], f.status[i].0 as f64);
-                assert_same("peak", p[5], missing(f.peak[i] as f64));
-                assert_same("peak_ratio", p[6], missing(f.peak_ratio[i] as f64));
-                assert_eq!(p[7], f.event_count[i] as f64);
-                assert_eq!(p[8], f.slab_us[i] as f64);
+                assert_eq!(p[6], f.status[i].0 as f64);
+                assert_same("peak", p[7], missing(f.peak[i] as f64));
+                assert_same("peak_ratio", p[8], missing(f.peak_ratio[i] as f64));
+                assert_eq!(p[9], f.event_count[i] as f64);
+                assert_eq!(p[10], f.slab_us[i] as f64);
             }
         }
     }
@@ -447,6 +507,8 @@ struct Vtk {
     y: Vec<f64>,
     velocity: Vec<[f32; 3]>,
     status: Vec<u8>,
+    u_unc: Vec<f32>,
+    v_unc: Vec<f32>,
     peak: Vec<f32>,
     peak_ratio: Vec<f32>,
     event_count: Vec<u32>,
@@ -479,6 +541,8 @@ fn parse_vtk(bytes: &[u8]) -> Vtk {
         y: vec![],
         velocity: vec![],
         status: vec![],
+        u_unc: vec![],
+        v_unc: vec![],
         peak: vec![],
         peak_ratio: vec![],
         event_count: vec![],
@@ -529,17 +593,18 @@ fn parse_vtk(bytes: &[u8]) -> Vtk {
                 pos = end + 1;
                 out.status = take(&mut pos, n);
             }
-            "FIELD" => assert_eq!(header, "FIELD FieldData 4"),
-            "peak" | "peak_ratio" => {
+            "FIELD" => assert_eq!(header, "FIELD FieldData 6"),
+            "u_unc" | "v_unc" | "peak" | "peak_ratio" => {
                 assert_eq!(&words[1..], ["1", &n.to_string(), "float"]);
                 let v: Vec<f32> = be32(take(&mut pos, 4 * n))
                     .into_iter()
                     .map(f32::from_be_bytes)
                     .collect();
-                if words[0] == "peak" {
-                    out.peak = v;
-                } else {
-                    out.peak_ratio = v;
+                match words[0] {
+                    "u_unc" => out.u_unc = v,
+                    "v_unc" => out.v_unc = v,
+                    "peak" => out.peak = v,
+                    _ => out.peak_ratio = v,
                 }
             }
             "event_count" | "slab_us" => {
@@ -561,6 +626,8 @@ fn parse_vtk(bytes: &[u8]) -> Vtk {
     for len in [
         out.velocity.len(),
         out.status.len(),
+        out.u_unc.len(),
+        out.v_unc.len(),
         out.peak.len(),
         out.peak_ratio.len(),
         out.event_count.len(),
@@ -608,6 +675,10 @@ fn vtk_round_trip() {
                     assert_same("v", vtk.velocity[k][1] as f64, up * e[3]);
                     assert_eq!(vtk.velocity[k][2], 0.0);
                     assert_eq!(vtk.status[k], f.status[i].0);
+                    // Scaled with the calibration, never negated with v.
+                    let e_unc = expected_unc(&f, i);
+                    assert_same("u_unc", vtk.u_unc[k] as f64, e_unc[0]);
+                    assert_same("v_unc", vtk.v_unc[k] as f64, e_unc[1]);
                     assert_same("peak", vtk.peak[k] as f64, f.peak[i] as f64);
                     assert_same("ratio", vtk.peak_ratio[k] as f64, f.peak_ratio[i] as f64);
                     assert_eq!(vtk.event_count[k], f.event_count[i]);
@@ -623,7 +694,14 @@ fn vtk_single_field_goes_to_the_given_path() {
     let mut f = series(false);
     let n = f.field_len();
     f.t_us.truncate(1);
-    for a in [&mut f.u, &mut f.v, &mut f.peak, &mut f.peak_ratio] {
+    for a in [
+        &mut f.u,
+        &mut f.v,
+        &mut f.u_unc,
+        &mut f.v_unc,
+        &mut f.peak,
+        &mut f.peak_ratio,
+    ] {
         a.truncate(n);
     }
     f.status.truncate(n);
@@ -648,7 +726,10 @@ fn write_field_picks_the_format_from_the_extension() {
     let magic: [(&str, &[u8]); 6] = [
         ("a.nc", b"CDF\x02"),
         ("a.NPZ", b"PK\x03\x04"),
-        ("a.csv", b"t_us,x_px,y_px,u_px_ms,v_px_ms,status"),
+        (
+            "a.csv",
+            b"t_us,x_px,y_px,u_px_ms,v_px_ms,u_unc_px_ms,v_unc_px_ms,status",
+        ),
         ("a.dat", b"# ebiv"),
         ("a.tec", b"# ebiv"),
         ("a_0000.vtk", b"# vtk DataFile"),

@@ -312,6 +312,8 @@ impl<E: Estimator> AdaptiveSlab<E> {
         WindowEstimate {
             u: f64::NAN,
             v: f64::NAN,
+            u_unc: f32::NAN,
+            v_unc: f32::NAN,
             status: Status::LOW_PEAK_RATIO,
             ..e
         }

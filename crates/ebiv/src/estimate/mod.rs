@@ -55,6 +55,10 @@ pub struct WindowEstimate {
     pub u: f64,
     /// y velocity (image rows, positive down), px/ms (NaN if invalid).
     pub v: f64,
+    /// Standard uncertainty (one standard deviation) of `u`, px/ms; NaN where unknown.
+    pub u_unc: f32,
+    /// Standard uncertainty (one standard deviation) of `v`, px/ms; NaN where unknown.
+    pub v_unc: f32,
     /// Why the estimate is invalid, if it is.
     pub status: Status,
     /// Peak value: summed normalised correlation, or the objective's maximum.
@@ -78,6 +82,8 @@ impl WindowEstimate {
         WindowEstimate {
             u: f64::NAN,
             v: f64::NAN,
+            u_unc: f32::NAN,
+            v_unc: f32::NAN,
             status,
             peak: f32::NAN,
             peak_ratio: f32::NAN,

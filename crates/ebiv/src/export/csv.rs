@@ -10,16 +10,21 @@
 //!   integers);
 //! * `u_px_ms,v_px_ms`: velocity, px/ms (v positive down); `u_px,v_px` for the displacements
 //!   of image pairs without a time between the frames;
+//! * `u_unc_px_ms,v_unc_px_ms`: standard uncertainty (one standard deviation) of `u` and `v`,
+//!   in their unit (`u_unc_px,v_unc_px` for displacements), `NaN` where unknown and for
+//!   invalid and replaced vectors ([`FieldSeries::u_unc`]);
 //! * `status`: 0 = valid, else the bits of [`Status`](crate::field::Status);
 //! * `peak,peak_ratio,event_count`: the quality of each vector;
 //! * `slab_us`: the time slab the vector was measured over, µs, 0 where there is none
 //!   ([`FieldSeries::slab_us`]).
 //!
 //! These columns always come first and always in image units; a ground truth
-//! ([`FieldSeries::ground_truth`]) has none from `status` on. With a calibration the
-//! physical columns `x_mm,y_mm,u_m_s,v_m_s` follow (`u_mm,v_mm` for displacements; y and v
-//! positive up when the calibration says `y_up`). One line per vector, time-major, then rows,
-//! then columns. Invalid values are written as `NaN`; floats in their shortest exact form.
+//! ([`FieldSeries::ground_truth`]) has neither the uncertainty columns nor any from `status`
+//! on. With a calibration the physical columns `x_mm,y_mm,u_m_s,v_m_s,u_unc_m_s,v_unc_m_s`
+//! follow (`u_mm,v_mm,u_unc_mm,v_unc_mm` for displacements; y and v positive up when the
+//! calibration says `y_up`, the uncertainties scaled but never negated). One line per vector,
+//! time-major, then rows, then columns. Invalid values are written as `NaN`; floats in their
+//! shortest exact form.
 //!
 //! [`TimeBasis`]: crate::field::TimeBasis
 
@@ -30,8 +35,8 @@ use std::io::Write;
 use std::path::Path;
 
 /// The header of a CSV of velocities measured in camera time, without calibration.
-pub const CSV_HEADER: &str =
-    "t_us,x_px,y_px,u_px_ms,v_px_ms,status,peak,peak_ratio,event_count,slab_us";
+pub const CSV_HEADER: &str = "t_us,x_px,y_px,u_px_ms,v_px_ms,u_unc_px_ms,v_unc_px_ms,status,peak,\
+                              peak_ratio,event_count,slab_us";
 
 /// A unit as a column-name suffix: `px/ms` → `px_ms`, `m/s` → `m_s`.
 fn suffix(unit: &str) -> String {
@@ -49,11 +54,15 @@ pub fn csv_header(field: &FieldSeries) -> String {
     let image = suffix(image_unit);
     let mut header = format!("{time},x_px,y_px,u_{image},v_{image}");
     if !field.ground_truth {
+        header.push_str(&format!(",u_unc_{image},v_unc_{image}"));
         header.push_str(",status,peak,peak_ratio,event_count,slab_us");
     }
     if field.calibration.is_some() {
         let physical = suffix(physical_unit);
         header.push_str(&format!(",x_mm,y_mm,u_{physical},v_{physical}"));
+        if !field.ground_truth {
+            header.push_str(&format!(",u_unc_{physical},v_unc_{physical}"));
+        }
     }
     header
 }
@@ -73,7 +82,9 @@ pub fn write_field_csv(field: &FieldSeries, path: &Path) -> Result<()> {
                     if !field.ground_truth {
                         write!(
                             w,
-                            ",{},{},{},{},{}",
+                            ",{},{},{},{},{},{},{}",
+                            field.u_unc[i],
+                            field.v_unc[i],
                             field.status[i].0,
                             field.peak[i],
                             field.peak_ratio[i],
@@ -83,6 +94,9 @@ pub fn write_field_csv(field: &FieldSeries, path: &Path) -> Result<()> {
                     }
                     if let Some(p) = &physical {
                         write!(w, ",{},{},{},{}", p.x_mm[col], p.y_mm[row], p.u[i], p.v[i])?;
+                        if !field.ground_truth {
+                            write!(w, ",{},{}", p.u_unc[i], p.v_unc[i])?;
+                        }
                     }
                     writeln!(w)?;
                 }
@@ -106,8 +120,9 @@ mod tests {
         let text = std::fs::read_to_string(&path).unwrap();
         assert_eq!(
             text,
-            "t_us,x_px,y_px,u_px_ms,v_px_ms,status,peak,peak_ratio,event_count,slab_us\n\
-             5,1,2,NaN,NaN,1,NaN,NaN,0,0\n"
+            "t_us,x_px,y_px,u_px_ms,v_px_ms,u_unc_px_ms,v_unc_px_ms,status,peak,peak_ratio,\
+             event_count,slab_us\n\
+             5,1,2,NaN,NaN,NaN,NaN,1,NaN,NaN,0,0\n"
         );
         assert_eq!(text.lines().next(), Some(CSV_HEADER));
         assert!(!dir.path().join("f.csv.partial").exists());
@@ -120,16 +135,17 @@ mod tests {
         f.time_basis = TimeBasis::PairIndex;
         assert_eq!(
             csv_header(&f),
-            "field,x_px,y_px,u_px,v_px,status,peak,peak_ratio,event_count,slab_us"
+            "field,x_px,y_px,u_px,v_px,u_unc_px,v_unc_px,status,peak,peak_ratio,event_count,\
+             slab_us"
         );
         f.calibration = Some(Calibration {
             mm_per_px: 0.5,
             origin_px: [0.0, 0.0],
             y_up: false,
         });
-        assert!(csv_header(&f).ends_with(",x_mm,y_mm,u_mm,v_mm"));
+        assert!(csv_header(&f).ends_with(",x_mm,y_mm,u_mm,v_mm,u_unc_mm,v_unc_mm"));
         f.quantity = Quantity::Velocity;
-        assert!(csv_header(&f).ends_with(",x_mm,y_mm,u_m_s,v_m_s"));
+        assert!(csv_header(&f).ends_with(",x_mm,y_mm,u_m_s,v_m_s,u_unc_m_s,v_unc_m_s"));
     }
 
     #[test]
@@ -147,6 +163,15 @@ mod tests {
             std::fs::read_to_string(&path).unwrap(),
             "t_us,x_px,y_px,u_px_ms,v_px_ms\n7,1,2,0.5,-1\n7,3,2,1.5,2\n"
         );
+        f.calibration = Some(Calibration {
+            mm_per_px: 0.5,
+            origin_px: [0.0, 0.0],
+            y_up: false,
+        });
+        assert_eq!(
+            csv_header(&f),
+            "t_us,x_px,y_px,u_px_ms,v_px_ms,x_mm,y_mm,u_m_s,v_m_s"
+        );
     }
 
     #[test]
@@ -154,6 +179,8 @@ mod tests {
         let mut f = FieldSeries::new(vec![10.0, 30.0], vec![100.0], vec![-7]);
         f.u[1] = 2.0;
         f.v[1] = 4.0;
+        f.u_unc[1] = 0.25;
+        f.v_unc[1] = 0.5;
         f.status[1] = Status::VALID;
         f.peak[1] = 0.25;
         f.peak_ratio[1] = 3.5;
@@ -171,10 +198,17 @@ mod tests {
         let lines: Vec<&str> = text.lines().collect();
         assert_eq!(
             lines[0],
-            "t_us,x_px,y_px,u_px_ms,v_px_ms,status,peak,peak_ratio,event_count,slab_us,\
-             x_mm,y_mm,u_m_s,v_m_s"
+            "t_us,x_px,y_px,u_px_ms,v_px_ms,u_unc_px_ms,v_unc_px_ms,status,peak,peak_ratio,\
+             event_count,slab_us,x_mm,y_mm,u_m_s,v_m_s,u_unc_m_s,v_unc_m_s"
         );
-        assert_eq!(lines[1], "-7,10,100,NaN,NaN,1,NaN,NaN,0,0,0,-5,NaN,NaN");
-        assert_eq!(lines[2], "-7,30,100,2,4,0,0.25,3.5,42,7000,10,-5,1,-2");
+        assert_eq!(
+            lines[1],
+            "-7,10,100,NaN,NaN,NaN,NaN,1,NaN,NaN,0,0,0,-5,NaN,NaN,NaN,NaN"
+        );
+        // y up flips v (4 px/ms down is -2 m/s) but not its uncertainty.
+        assert_eq!(
+            lines[2],
+            "-7,30,100,2,4,0.25,0.5,0,0.25,3.5,42,7000,10,-5,1,-2,0.125,0.25"
+        );
     }
 }

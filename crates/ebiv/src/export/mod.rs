@@ -7,11 +7,13 @@
 //! format cannot carry NaN, as documented per format) next to the status flags, applies the
 //! series' [`Calibration`](crate::field::Calibration) the same way (positions in mm,
 //! velocities in m/s, `y` and `v` flipped together when `y_up`), and writes through a
-//! temporary `<name>.partial` file that is renamed when complete. VTK files always have y up
-//! (a y-down series is written with y and v negated) so that ParaView does not show the image
-//! mirrored; see [`write_field_vtk`]. A ground truth
-//! ([`FieldSeries::ground_truth`]) is written without status and quality variables by the
-//! NetCDF and CSV writers.
+//! temporary `<name>.partial` file that is renamed when complete. Every writer carries the
+//! standard uncertainty of each vector (`u_unc`, `v_unc`: one standard deviation, in the unit
+//! of `u` and `v`, NaN where unknown); a calibration scales it like the velocity but never
+//! flips its sign. VTK files always have y up (a y-down series is written with y and v
+//! negated, `v_unc` kept) so that ParaView does not show the image mirrored; see
+//! [`write_field_vtk`]. A ground truth ([`FieldSeries::ground_truth`]) is written without
+//! uncertainty, status and quality variables by the NetCDF and CSV writers.
 
 mod csv;
 mod netcdf;
@@ -143,6 +145,8 @@ pub(crate) fn check(field: &FieldSeries) -> Result<()> {
     let lengths = [
         ("u", field.u.len()),
         ("v", field.v.len()),
+        ("u_unc", field.u_unc.len()),
+        ("v_unc", field.v_unc.len()),
         ("status", field.status.len()),
         ("peak", field.peak.len()),
         ("peak_ratio", field.peak_ratio.len()),
@@ -169,7 +173,7 @@ pub(crate) fn check(field: &FieldSeries) -> Result<()> {
 }
 
 /// Positions and velocities of a series in physical units (mm, m/s), `y` and `v` flipped
-/// together when the calibration says `y_up`.
+/// together when the calibration says `y_up`; uncertainties scaled, never flipped.
 pub(crate) struct Physical {
     /// Grid column positions, mm.
     pub x_mm: Vec<f64>,
@@ -179,6 +183,10 @@ pub(crate) struct Physical {
     pub u: Vec<f32>,
     /// y velocity, m/s (positive up when `y_up`).
     pub v: Vec<f32>,
+    /// Standard uncertainty of `u`, m/s.
+    pub u_unc: Vec<f32>,
+    /// Standard uncertainty of `v`, m/s (not flipped: a spread has no direction).
+    pub v_unc: Vec<f32>,
 }
 
 impl Physical {
@@ -193,12 +201,20 @@ impl Physical {
                 (u + 0.0, v + 0.0)
             })
             .unzip();
+        let (u_unc, v_unc) = field
+            .u_unc
+            .iter()
+            .zip(&field.v_unc)
+            .map(|(&u, &v)| c.uncertainty_m_per_s(u, v))
+            .unzip();
         // `+ 0.0` turns the -0 of a flipped zero into 0, so text files do not show `-0`.
         Physical {
             x_mm: field.x.iter().map(|&x| c.x_mm(x) + 0.0).collect(),
             y_mm: field.y.iter().map(|&y| c.y_mm(y) + 0.0).collect(),
             u,
             v,
+            u_unc,
+            v_unc,
         }
     }
 }
@@ -214,6 +230,10 @@ pub(crate) struct Written<'a> {
     pub u: std::borrow::Cow<'a, [f32]>,
     /// y velocity.
     pub v: std::borrow::Cow<'a, [f32]>,
+    /// Standard uncertainty of `u`, in its unit.
+    pub u_unc: std::borrow::Cow<'a, [f32]>,
+    /// Standard uncertainty of `v`, in its unit (never flipped).
+    pub v_unc: std::borrow::Cow<'a, [f32]>,
     /// Unit of x and y.
     pub length_unit: &'static str,
     /// Unit of u and v.
@@ -233,6 +253,8 @@ impl<'a> Written<'a> {
                     y: Cow::Owned(p.y_mm),
                     u: Cow::Owned(p.u),
                     v: Cow::Owned(p.v),
+                    u_unc: Cow::Owned(p.u_unc),
+                    v_unc: Cow::Owned(p.v_unc),
                     length_unit: "mm",
                     velocity_unit: physical_unit,
                 }
@@ -242,6 +264,8 @@ impl<'a> Written<'a> {
                 y: Cow::Borrowed(&field.y),
                 u: Cow::Borrowed(&field.u),
                 v: Cow::Borrowed(&field.v),
+                u_unc: Cow::Borrowed(&field.u_unc),
+                v_unc: Cow::Borrowed(&field.v_unc),
                 length_unit: "px",
                 velocity_unit: image_unit,
             },

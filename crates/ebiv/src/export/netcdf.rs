@@ -3,10 +3,13 @@
 //!
 //! Dimensions `(time, y, x)`. Coordinate variables `time`, `y`, `x` (px, or mm with a
 //! calibration, then also `x_px`, `y_px`); data variables `u`, `v` (px/ms or m/s, NaN =
-//! invalid), `status` (`short`, CF flag variable: `flag_masks`, `flag_meanings`), `peak`,
-//! `peak_ratio` (`float`), `event_count` (`int`), `slab_us` (`int`, units `us`: the time slab
-//! each vector was measured over, see [`FieldSeries::slab_us`]). A ground truth
-//! ([`FieldSeries::ground_truth`]) has only `u` and `v`: it has no status, quality or slab.
+//! invalid), `u_unc`, `v_unc` (`float`, in the units of `u`, `v`: their standard uncertainty,
+//! one standard deviation, NaN where unknown and for invalid and replaced vectors; scaled by a
+//! calibration, never negated), `status` (`short`, CF flag variable: `flag_masks`,
+//! `flag_meanings`), `peak`, `peak_ratio` (`float`), `event_count` (`int`), `slab_us` (`int`,
+//! units `us`: the time slab each vector was measured over, see [`FieldSeries::slab_us`]). A
+//! ground truth ([`FieldSeries::ground_truth`]) has only `u` and `v`: it has no uncertainty,
+//! status, quality or slab.
 //!
 //! `time` is a CF time coordinate (`standard_name = "time"`, `calendar`, units
 //! `microseconds since 1970-01-01 00:00:00`) on the recording's camera clock: CF needs a
@@ -98,6 +101,8 @@ pub fn write_field_netcdf(field: &FieldSeries, path: &Path) -> Result<()> {
     ds.add_var_f32("v", &grid).map_err(err)?;
     let quality = !field.ground_truth;
     if quality {
+        ds.add_var_f32("u_unc", &grid).map_err(err)?;
+        ds.add_var_f32("v_unc", &grid).map_err(err)?;
         ds.add_var_i16("status", &grid).map_err(err)?;
         ds.add_var_f32("peak", &grid).map_err(err)?;
         ds.add_var_f32("peak_ratio", &grid).map_err(err)?;
@@ -172,6 +177,18 @@ pub fn write_field_netcdf(field: &FieldSeries, path: &Path) -> Result<()> {
     ]);
     if quality {
         text_attrs.extend([
+            ("u_unc", "units", velocity.into()),
+            (
+                "u_unc",
+                "long_name",
+                "standard uncertainty of u (one standard deviation)".into(),
+            ),
+            ("v_unc", "units", velocity.into()),
+            (
+                "v_unc",
+                "long_name",
+                "standard uncertainty of v (one standard deviation)".into(),
+            ),
             ("status", "long_name", "vector status flags".into()),
             (
                 "status",
@@ -241,6 +258,13 @@ pub fn write_field_netcdf(field: &FieldSeries, path: &Path) -> Result<()> {
     if quality {
         for var in ["u", "v"] {
             text_attrs.push((var, "comment", "NaN where no valid vector".into()));
+        }
+        for var in ["u_unc", "v_unc"] {
+            text_attrs.push((
+                var,
+                "comment",
+                "NaN where unknown, and for invalid and replaced vectors".into(),
+            ));
         }
     }
     for (var, key, value) in &text_attrs {
@@ -317,6 +341,8 @@ pub fn write_field_netcdf(field: &FieldSeries, path: &Path) -> Result<()> {
         w.write_var_f32("u", &written.u).map_err(werr)?;
         w.write_var_f32("v", &written.v).map_err(werr)?;
         if quality {
+            w.write_var_f32("u_unc", &written.u_unc).map_err(werr)?;
+            w.write_var_f32("v_unc", &written.v_unc).map_err(werr)?;
             w.write_var_i16("status", &status).map_err(werr)?;
             w.write_var_f32("peak", &field.peak).map_err(werr)?;
             w.write_var_f32("peak_ratio", &field.peak_ratio)
@@ -343,6 +369,8 @@ mod tests {
         for i in 0..f.u.len() {
             f.u[i] = i as f32;
             f.v[i] = -(i as f32);
+            f.u_unc[i] = 0.01 * i as f32;
+            f.v_unc[i] = 0.02 * i as f32;
             f.status[i] = Status::VALID;
             f.peak[i] = 0.5 + i as f32;
             f.peak_ratio[i] = 1.5;
@@ -352,6 +380,8 @@ mod tests {
         f.slab_us[3] = 0;
         f.u[3] = f32::NAN;
         f.v[3] = f32::NAN;
+        f.u_unc[3] = f32::NAN;
+        f.v_unc[3] = f32::NAN;
         f.status[3] = Status::NO_EVENTS | Status::MASKED;
         f.peak_ratio[3] = f32::NAN;
         f.status[7] = Status::MEDIAN_TEST | Status::REPLACED;
@@ -405,6 +435,24 @@ mod tests {
         assert!(u[3].is_nan());
         assert_eq!(u[5], 5.0);
         assert_eq!(r.read_var_f32("v").unwrap()[5], -5.0);
+        let (u_unc, v_unc) = (
+            r.read_var_f32("u_unc").unwrap(),
+            r.read_var_f32("v_unc").unwrap(),
+        );
+        assert_eq!((u_unc[5], v_unc[5]), (f.u_unc[5], f.v_unc[5]));
+        assert!(u_unc[3].is_nan() && v_unc[3].is_nan());
+        for var in ["u_unc", "v_unc"] {
+            assert_eq!(
+                ds.get_var_attr_as_string(var, "units").as_deref(),
+                Some("pixel/millisecond")
+            );
+            let long_name = ds.get_var_attr_as_string(var, "long_name").unwrap();
+            assert!(
+                long_name.starts_with("standard uncertainty of"),
+                "{long_name}"
+            );
+            assert_eq!(ds.get_var(var).unwrap().dim_names(), ["time", "y", "x"]);
+        }
         assert_eq!(r.read_var_f64("time").unwrap(), vec![0.0, 10_000.0]);
         assert_eq!(r.read_var_f64("x").unwrap(), f.x);
         let status = r.read_var_i16("status").unwrap();
@@ -471,6 +519,17 @@ mod tests {
         // Image v = -5 px/ms (upwards) becomes +0.5 m/s with y up.
         assert!((v[5] - 0.5).abs() < 1e-6);
         assert!(u[3].is_nan() && v[3].is_nan());
+        // The uncertainties are scaled (0.05 and 0.1 px/ms → 0.005 and 0.01 m/s), not flipped.
+        let (u_unc, v_unc) = (
+            r.read_var_f32("u_unc").unwrap(),
+            r.read_var_f32("v_unc").unwrap(),
+        );
+        assert!((u_unc[5] - 0.005).abs() < 1e-7 && (v_unc[5] - 0.01).abs() < 1e-7);
+        assert!(u_unc[3].is_nan() && v_unc[3].is_nan());
+        assert_eq!(
+            ds.get_var_attr_as_string("v_unc", "units").as_deref(),
+            Some("m/s")
+        );
         assert_eq!(r.read_var_i16("status").unwrap()[3], 129);
     }
 
@@ -552,7 +611,15 @@ mod tests {
         let path = dir.path().join("truth.nc");
         write_field_netcdf(&f, &path).unwrap();
         let (ds, _) = netcdf3::FileReader::open(&path).unwrap().close();
-        for var in ["status", "peak", "peak_ratio", "event_count", "slab_us"] {
+        for var in [
+            "u_unc",
+            "v_unc",
+            "status",
+            "peak",
+            "peak_ratio",
+            "event_count",
+            "slab_us",
+        ] {
             assert!(!ds.has_var(var), "{var}");
         }
         assert!(!ds.has_global_attr("status_flags"));

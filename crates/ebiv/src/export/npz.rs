@@ -4,10 +4,12 @@
 //! little-endian, C order), deflate-compressed like `numpy.savez_compressed`.
 //!
 //! Arrays: `x`, `y` (`<f8`, px), `t_us` (`<i8`), and with shape `(nt, ny, nx)`: `u`, `v`
-//! (`<f4`, px/ms, NaN = invalid), `status` (`|u1`, bits of [`Status`]), `peak`,
-//! `peak_ratio` (`<f4`), `event_count`, `slab_us` (`<u4`; the time slab each vector was
-//! measured over, µs, 0 where there is none). With a calibration also `x_mm`, `y_mm`
-//! (`<f8`) and `u_m_s`, `v_m_s` (`<f4`; y and v positive up when `y_up`). `attributes` is a
+//! (`<f4`, px/ms, NaN = invalid), `u_unc`, `v_unc` (`<f4`, px/ms: the standard uncertainty of
+//! `u`, `v`, one standard deviation, NaN where unknown), `status` (`|u1`, bits of
+//! [`Status`]), `peak`, `peak_ratio` (`<f4`), `event_count`, `slab_us` (`<u4`; the time slab
+//! each vector was measured over, µs, 0 where there is none). With a calibration also `x_mm`,
+//! `y_mm` (`<f8`) and `u_m_s`, `v_m_s`, `u_unc_m_s`, `v_unc_m_s` (`<f4`; y and v positive up
+//! when `y_up`, the uncertainties scaled but never negated). `attributes` is a
 //! 1-D unicode array (`<U…`) of `key=value` strings: axis convention, units, status legend,
 //! what `slab_us` holds, calibration, software and the series' attributes. Everything loads
 //! with `numpy.load(path)` without pickles.
@@ -111,6 +113,8 @@ pub fn write_field_npz(field: &FieldSeries, path: &Path) -> Result<()> {
         ("t_us", npy(&field.t_us, &[field.t_us.len()])),
         ("u", npy(&field.u, &shape)),
         ("v", npy(&field.v, &shape)),
+        ("u_unc", npy(&field.u_unc, &shape)),
+        ("v_unc", npy(&field.v_unc, &shape)),
         ("status", npy(&status, &shape)),
         ("peak", npy(&field.peak, &shape)),
         ("peak_ratio", npy(&field.peak_ratio, &shape)),
@@ -123,6 +127,8 @@ pub fn write_field_npz(field: &FieldSeries, path: &Path) -> Result<()> {
         members.push(("y_mm", npy(&p.y_mm, &[p.y_mm.len()])));
         members.push(("u_m_s", npy(&p.u, &shape)));
         members.push(("v_m_s", npy(&p.v, &shape)));
+        members.push(("u_unc_m_s", npy(&p.u_unc, &shape)));
+        members.push(("v_unc_m_s", npy(&p.v_unc, &shape)));
     }
     let attributes: Vec<String> = metadata(field)
         .into_iter()
@@ -204,11 +210,64 @@ mod tests {
                 "status.npy",
                 "t_us.npy",
                 "u.npy",
+                "u_unc.npy",
                 "v.npy",
+                "v_unc.npy",
                 "x.npy",
                 "y.npy"
             ]
         );
         assert!(!dir.path().join("f.npz.partial").exists());
+    }
+
+    /// The `<f4` data of member `name` of the archive at `path`, after checking its header.
+    fn read_f4(path: &Path, name: &str, shape: &str) -> Vec<f32> {
+        use std::io::Read;
+        let mut zip = zip::ZipArchive::new(std::fs::File::open(path).unwrap()).unwrap();
+        let mut bytes = Vec::new();
+        zip.by_name(&format!("{name}.npy"))
+            .unwrap()
+            .read_to_end(&mut bytes)
+            .unwrap();
+        let start = 10 + u16::from_le_bytes([bytes[8], bytes[9]]) as usize;
+        let header = std::str::from_utf8(&bytes[10..start]).unwrap();
+        assert!(header.contains("'descr': '<f4'"), "{name}: {header}");
+        assert!(
+            header.contains(&format!("'shape': {shape}")),
+            "{name}: {header}"
+        );
+        bytes[start..]
+            .chunks_exact(4)
+            .map(|b| f32::from_le_bytes(b.try_into().unwrap()))
+            .collect()
+    }
+
+    #[test]
+    fn uncertainties_round_trip_and_calibration_scales_without_flipping() {
+        let mut f = FieldSeries::new(vec![0.0, 1.0], vec![0.0], vec![3]);
+        f.u = vec![2.0, f32::NAN];
+        f.v = vec![4.0, f32::NAN];
+        f.u_unc = vec![0.25, f32::NAN];
+        f.v_unc = vec![0.5, f32::NAN];
+        f.status[0] = crate::field::Status::VALID;
+        f.calibration = Some(crate::field::Calibration {
+            mm_per_px: 0.5,
+            origin_px: [0.0, 0.0],
+            y_up: true,
+        });
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("f.npz");
+        write_field_npz(&f, &path).unwrap();
+        let shape = "(1, 1, 2)";
+        let u_unc = read_f4(&path, "u_unc", shape);
+        let v_unc = read_f4(&path, "v_unc", shape);
+        assert_eq!((u_unc[0], v_unc[0]), (0.25, 0.5));
+        assert!(u_unc[1].is_nan() && v_unc[1].is_nan());
+        // y up flips v (4 px/ms → -2 m/s) but not its uncertainty (0.5 px/ms → 0.25 m/s).
+        assert_eq!(read_f4(&path, "v_m_s", shape)[0], -2.0);
+        let u_unc = read_f4(&path, "u_unc_m_s", shape);
+        let v_unc = read_f4(&path, "v_unc_m_s", shape);
+        assert_eq!((u_unc[0], v_unc[0]), (0.125, 0.25));
+        assert!(u_unc[1].is_nan() && v_unc[1].is_nan());
     }
 }

@@ -4,17 +4,20 @@
 //! DATAPACKING=POINT`), one line per grid point with I (x) varying fastest.
 //!
 //! Variables: `x`, `y` (with their unit in the name: `x [px]` or `x [mm]`), `u`, `v`
-//! (`[px/ms]` or `[m/s]`), `status` (0 = valid, else the bits of [`Status`]), `peak`,
-//! `peak_ratio`, `event_count`, `slab_us` (the time slab each vector was measured over, µs, 0
-//! where there is none; described in `DATASETAUXDATA slab_us`). All zones share `STRANDID=1`
+//! (`[px/ms]` or `[m/s]`), `u_unc`, `v_unc` (the standard uncertainty of `u`, `v`, one
+//! standard deviation, in their unit; missing where unknown; never negated), `status` (0 =
+//! valid, else the bits of [`Status`]), `peak`, `peak_ratio`, `event_count`, `slab_us` (the
+//! time slab each vector was measured over, µs, 0 where there is none; described in
+//! `DATASETAUXDATA slab_us`). All zones share `STRANDID=1`
 //! and carry `SOLUTIONTIME` = the field time **in microseconds**, so Tecplot animates them as
 //! one transient series.
 //!
 //! The ASCII grammar has no not-a-number token, and Tecplot's readers are not documented to
 //! accept `NaN`; zero would pass for a measured vector. Non-finite values (invalid `u`, `v`,
-//! undefined `peak_ratio`) are therefore written as [`TECPLOT_MISSING`], stated in a comment
-//! and in `DATASETAUXDATA missing_value`. Hide them with value blanking on `status > 0`
-//! (or on `u < -1e29`).
+//! unknown `u_unc`, `v_unc`, undefined `peak_ratio`) are therefore written as
+//! [`TECPLOT_MISSING`], stated in a comment and in `DATASETAUXDATA missing_value`. Hide them
+//! with value blanking on `status > 0` (or on `u < -1e29`); an unknown uncertainty of a valid
+//! vector, on `u_unc < -1e29`.
 //!
 //! [`Status`]: crate::field::Status
 
@@ -55,8 +58,9 @@ pub fn write_field_tecplot(field: &FieldSeries, path: &Path) -> Result<()> {
         writeln!(out, "TITLE = \"ebiv vector field\"")?;
         writeln!(
             out,
-            "VARIABLES = \"x [{lu}]\" \"y [{lu}]\" \"u [{vu}]\" \"v [{vu}]\" \"status\" \
-             \"peak\" \"peak_ratio\" \"event_count\" \"slab_us\""
+            "VARIABLES = \"x [{lu}]\" \"y [{lu}]\" \"u [{vu}]\" \"v [{vu}]\" \
+             \"u_unc [{vu}]\" \"v_unc [{vu}]\" \"status\" \"peak\" \"peak_ratio\" \
+             \"event_count\" \"slab_us\""
         )?;
         for (k, v) in &meta {
             writeln!(out, "DATASETAUXDATA {k}=\"{}\"", quote(v))?;
@@ -66,7 +70,8 @@ pub fn write_field_tecplot(field: &FieldSeries, path: &Path) -> Result<()> {
             writeln!(
                 out,
                 "ZONE T=\"t = {t} us\", I={}, J={}, K=1, ZONETYPE=ORDERED, DATAPACKING=POINT, \
-                 DT=(DOUBLE DOUBLE SINGLE SINGLE SHORTINT SINGLE SINGLE DOUBLE DOUBLE), \
+                 DT=(DOUBLE DOUBLE SINGLE SINGLE SINGLE SINGLE SHORTINT SINGLE SINGLE DOUBLE \
+                 DOUBLE), \
                  STRANDID=1, SOLUTIONTIME={t}",
                 field.x.len(),
                 field.y.len()
@@ -77,11 +82,13 @@ pub fn write_field_tecplot(field: &FieldSeries, path: &Path) -> Result<()> {
                     let i = field.index(ti, row, col);
                     writeln!(
                         out,
-                        "{} {} {} {} {} {} {} {} {}",
+                        "{} {} {} {} {} {} {} {} {} {} {}",
                         num(*x),
                         num(*y),
                         num(w.u[i] as f64),
                         num(w.v[i] as f64),
+                        num(w.u_unc[i] as f64),
+                        num(w.v_unc[i] as f64),
                         field.status[i].0,
                         num(field.peak[i] as f64),
                         num(field.peak_ratio[i] as f64),
@@ -157,6 +164,31 @@ mod tests {
         assert!(zones[1].contains("SOLUTIONTIME=200") && zones[1].contains("I=3, J=2"));
         assert!(text.contains("DATASETAUXDATA note=\"say \\\"hi\\\"\""));
         assert!(text.contains("\"x [px]\" \"y [px]\" \"u [px/ms]\""));
-        assert!(text.contains("\n0 4 1.25 -1e30 0 -1e30 -1e30 0 0\n"));
+        assert!(text.contains("\n0 4 1.25 -1e30 -1e30 -1e30 0 -1e30 -1e30 0 0\n"));
+    }
+
+    #[test]
+    fn uncertainties_follow_v_scaled_by_the_calibration_and_never_negated() {
+        let mut f = FieldSeries::new(vec![0.0], vec![4.0], vec![0]);
+        f.u[0] = 2.0;
+        f.v[0] = 4.0;
+        f.u_unc[0] = 0.25;
+        f.v_unc[0] = 0.5;
+        f.status[0] = crate::field::Status::VALID;
+        f.calibration = Some(crate::field::Calibration {
+            mm_per_px: 0.5,
+            origin_px: [0.0, 0.0],
+            y_up: true,
+        });
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("f.dat");
+        write_field_tecplot(&f, &path).unwrap();
+        let text = std::fs::read_to_string(&path).unwrap();
+        assert!(
+            text.contains("\"u [m/s]\" \"v [m/s]\" \"u_unc [m/s]\" \"v_unc [m/s]\" \"status\""),
+            "{text}"
+        );
+        // v flips with y up (4 px/ms → -2 m/s); its uncertainty is only scaled.
+        assert!(text.contains("\n0 -2 1 -2 0.125 0.25 0 "), "{text}");
     }
 }

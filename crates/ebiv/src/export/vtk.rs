@@ -2,10 +2,12 @@
 //! Legacy Formats"): `DATASET RECTILINEAR_GRID` with `DIMENSIONS nx ny 1`, `X_COORDINATES`,
 //! `Y_COORDINATES` (`double`), `Z_COORDINATES` (0), and `POINT_DATA` with
 //! `VECTORS velocity float` (u, v, 0), `SCALARS status unsigned_char` (0 = valid, else the
-//! bits of [`Status`]) and a `FIELD` with `peak`, `peak_ratio` (`float`), `event_count` and
-//! `slab_us` (`unsigned_int`; the time slab each vector was measured over, µs, 0 where there
-//! is none): field arrays are loaded by every legacy reader, where a second `SCALARS`
-//! section is skipped unless the reader is told to read all of them.
+//! bits of [`Status`]) and a `FIELD` with `u_unc`, `v_unc` (`float`: the standard uncertainty
+//! of u and v, one standard deviation, in their unit, NaN where unknown), `peak`,
+//! `peak_ratio` (`float`), `event_count` and `slab_us` (`unsigned_int`; the time slab each
+//! vector was measured over, µs, 0 where there is none): field arrays are loaded by every
+//! legacy reader, where a second `SCALARS` section is skipped unless the reader is told to
+//! read all of them.
 //!
 //! The files are `BINARY` (big-endian, as the legacy format prescribes): VTK's ASCII legacy
 //! reader does not parse `nan`, and invalid vectors must stay NaN, never zero.
@@ -14,9 +16,9 @@
 //! written as they are would show the image upside down. Where the series is written with y
 //! down (image coordinates, or a calibration without `y_up`), the y coordinates and the v
 //! component are both negated: image row `r` is at `y = −r` (mm: `−y_mm`), `v` is positive
-//! up, and ParaView shows the field as the camera saw it. With a `y_up` calibration they are
-//! written as they are. The file's title line states which. Coordinates ascend as VTK
-//! expects, so the rows are written bottom row first.
+//! up, and ParaView shows the field as the camera saw it; `v_unc`, a spread, is not negated.
+//! With a `y_up` calibration they are written as they are. The file's title line states
+//! which. Coordinates ascend as VTK expects, so the rows are written bottom row first.
 //!
 //! One file per time step. A single field goes to `path`; a series of `nt > 1` fields goes
 //! to `stem_0000.vtk`, `stem_0001.vtk`, … (see [`vtk_series_paths`]) plus a ParaView file
@@ -169,12 +171,15 @@ fn write_step(
     out.write_all(&buf)?;
     // Further arrays as field data, which every legacy reader loads (only the first
     // SCALARS is read unless the reader is told to read all).
-    writeln!(out, "\nFIELD FieldData 4")?;
+    writeln!(out, "\nFIELD FieldData 6")?;
     let n = nx * ny;
-    for (k, (name, data)) in [("peak", &field.peak), ("peak_ratio", &field.peak_ratio)]
-        .into_iter()
-        .enumerate()
-    {
+    let floats: [(&str, &[f32]); 4] = [
+        ("u_unc", &w.u_unc),
+        ("v_unc", &w.v_unc),
+        ("peak", &field.peak),
+        ("peak_ratio", &field.peak_ratio),
+    ];
+    for (k, (name, data)) in floats.into_iter().enumerate() {
         if k > 0 {
             writeln!(out)?;
         }
@@ -300,6 +305,49 @@ mod tests {
         assert_eq!(coordinates(&bytes, "Y_COORDINATES", 2), vec![-50.0, -10.0]);
         // Row 50 moved up on the image: positive v in the y-up file.
         assert_eq!(vectors(&bytes, 2), vec![(2.0, 4.0), (1.0, -3.0)]);
+    }
+
+    /// The floats of the field array `name` of `n` points, in file order.
+    fn field_array(bytes: &[u8], name: &str, n: usize) -> Vec<f32> {
+        let key = format!("\n{name} 1 {n} float\n");
+        let at = bytes
+            .windows(key.len())
+            .position(|w| w == key.as_bytes())
+            .unwrap()
+            + key.len();
+        (0..n)
+            .map(|k| f32::from_be_bytes(bytes[at + 4 * k..at + 4 * k + 4].try_into().unwrap()))
+            .collect()
+    }
+
+    #[test]
+    fn uncertainties_are_field_arrays_scaled_but_never_negated() {
+        let mut f = FieldSeries::new(vec![0.0], vec![10.0, 50.0], vec![0]);
+        f.u = vec![1.0, 2.0];
+        f.v = vec![3.0, -4.0];
+        f.u_unc = vec![0.25, f32::NAN];
+        f.v_unc = vec![0.5, 0.75];
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("f.vtk");
+        write_field_vtk(&f, &path).unwrap();
+        let bytes = std::fs::read(&path).unwrap();
+        assert!(String::from_utf8_lossy(&bytes).contains("\nFIELD FieldData 6\n"));
+        // Bottom row (50) first; v is negated for y up, v_unc is not.
+        assert_eq!(vectors(&bytes, 2), vec![(2.0, 4.0), (1.0, -3.0)]);
+        let u_unc = field_array(&bytes, "u_unc", 2);
+        assert!(u_unc[0].is_nan() && u_unc[1] == 0.25);
+        assert_eq!(field_array(&bytes, "v_unc", 2), vec![0.75, 0.5]);
+        // A calibration without y up: scaled by 0.5 mm/px, still not negated.
+        f.calibration = Some(crate::field::Calibration {
+            mm_per_px: 0.5,
+            origin_px: [0.0, 0.0],
+            y_up: false,
+        });
+        write_field_vtk(&f, &path).unwrap();
+        let bytes = std::fs::read(&path).unwrap();
+        assert_eq!(vectors(&bytes, 2), vec![(1.0, 2.0), (0.5, -1.5)]);
+        assert_eq!(field_array(&bytes, "v_unc", 2), vec![0.375, 0.25]);
+        assert_eq!(field_array(&bytes, "u_unc", 2)[1], 0.125);
     }
 
     #[test]

@@ -489,6 +489,8 @@ fn evaluate_pass(
     for (i, r) in results.into_iter().enumerate() {
         field.u[i] = r.u;
         field.v[i] = r.v;
+        field.u_unc[i] = r.u_unc;
+        field.v_unc[i] = r.v_unc;
         field.status[i] = r.status;
         field.peak[i] = r.peak;
         field.peak_ratio[i] = r.peak_ratio;
@@ -501,6 +503,9 @@ fn evaluate_pass(
 struct WindowResult {
     u: f32,
     v: f32,
+    /// Standard uncertainty of `u`, `v` (px); NaN where unknown.
+    u_unc: f32,
+    v_unc: f32,
     status: Status,
     peak: f32,
     peak_ratio: f32,
@@ -512,6 +517,8 @@ impl WindowResult {
         WindowResult {
             u: f32::NAN,
             v: f32::NAN,
+            u_unc: f32::NAN,
+            v_unc: f32::NAN,
             status,
             peak: f32::NAN,
             peak_ratio: f32::NAN,

@@ -268,6 +268,8 @@ fn evaluate_pass<E: Estimator>(
     for (i, e) in estimates.into_iter().enumerate() {
         field.u[i] = e.u as f32;
         field.v[i] = e.v as f32;
+        field.u_unc[i] = e.u_unc;
+        field.v_unc[i] = e.v_unc;
         field.status[i] = e.status;
         field.peak[i] = e.peak;
         field.peak_ratio[i] = e.peak_ratio;
@@ -276,6 +278,8 @@ fn evaluate_pass<E: Estimator>(
         if !e.status.is_valid() {
             field.u[i] = f32::NAN;
             field.v[i] = f32::NAN;
+            field.u_unc[i] = f32::NAN;
+            field.v_unc[i] = f32::NAN;
         }
     }
     field

@@ -110,6 +110,8 @@ pub(super) fn reevaluate_outliers<E: Estimator>(
     for &(i, e) in &accepted {
         field.u[i] = e.u as f32;
         field.v[i] = e.v as f32;
+        field.u_unc[i] = e.u_unc;
+        field.v_unc[i] = e.v_unc;
         field.status[i] = Status::VALID;
         field.peak[i] = e.peak;
         field.peak_ratio[i] = e.peak_ratio;
@@ -156,6 +158,8 @@ mod tests {
             let found = |v: [f64; 2], ratio: f32| WindowEstimate {
                 u: v[0],
                 v: v[1],
+                u_unc: 0.05,
+                v_unc: 0.07,
                 status: Status::VALID,
                 peak: 1.0,
                 peak_ratio: ratio,
@@ -251,6 +255,8 @@ mod tests {
         assert!(field.status[i].is_valid());
         assert_eq!([field.u[i], field.v[i]], [1.05, 0.02]);
         assert_eq!(field.peak_ratio[i], 1.5);
+        // It carries the uncertainty of the estimate it was accepted from.
+        assert_eq!([field.u_unc[i], field.v_unc[i]], [0.05, 0.07]);
         // The accepted estimate brings its own slab (the field was built without one).
         assert_eq!(field.slab_us[i], 4000);
         assert_eq!(field.slab_us[field.index(2, 1)], 0);
@@ -264,6 +270,7 @@ mod tests {
             assert_eq!(n, 0);
             assert_eq!(field.status[i], Status::MEDIAN_TEST);
             assert!(field.u[i].is_nan());
+            assert!(field.u_unc[i].is_nan() && field.v_unc[i].is_nan());
         };
         // Lower than another peak of its plane (the ratios of 0.53–0.59 of issue 29's
         // mixing layer), or about as high.
