@@ -15,6 +15,7 @@ mod es;
 mod evt2;
 mod evt21;
 mod evt3;
+pub mod field;
 mod npy;
 mod npz;
 mod prophesee_header;

@@ -2,6 +2,7 @@
 
 mod animation;
 mod arrow;
+mod assessment;
 mod axes;
 mod colormap;
 mod draw;
@@ -10,10 +11,15 @@ pub mod font;
 mod frame_image;
 mod histogram;
 mod palette;
+pub mod plot;
 mod rate_map;
 mod vector_map;
 
 pub use animation::{series_animation, write_gif};
+pub use assessment::{
+    coverage_figure, differences_figure, error_bins_figure, error_map_figure, fractional_figure,
+    scatter_figure, write_agreement_report, write_assessment_report,
+};
 pub use axes::{ColourBar, ImageFigureStyle, MAX_PIXEL_SCALE};
 pub use colormap::{inferno, time_code};
 pub use event_image::{event_figure, time_code_bar, time_coded_image, TimeCodedImage};

@@ -7,7 +7,7 @@
 //! `t_us,x_px,y_px,u_px_ms,v_px_ms` (rows in any order) and NetCDF classic files with `u`, `v` over (time, y, x) or (y, x) and
 //! coordinate variables `x`, `y` and optionally `time` (see [`GriddedFlow::from_netcdf`]).
 
-mod netcdf;
+pub(crate) mod netcdf;
 
 use super::Flow;
 use crate::error::{Error, Result};

@@ -7,19 +7,20 @@ use netcdf3::{DataVector, FileReader, Variable};
 use std::io::Read;
 use std::path::Path;
 
-/// Reads variables of one file, with errors naming the file.
-struct Reader {
-    reader: FileReader,
-    context: String,
+/// Reads variables of one file, with errors naming the file (also used by the vector-field
+/// reader, [`crate::io::field`]).
+pub(crate) struct Reader {
+    pub(crate) reader: FileReader,
+    pub(crate) context: String,
     file_len: u64,
 }
 
 impl Reader {
-    fn err(&self, message: impl Into<String>) -> Error {
+    pub(crate) fn err(&self, message: impl Into<String>) -> Error {
         Error::unsupported(self.context.clone(), message)
     }
 
-    fn var(&self, name: &str) -> Result<&Variable> {
+    pub(crate) fn var(&self, name: &str) -> Result<&Variable> {
         self.reader.data_set().get_var(name).ok_or_else(|| {
             self.err(format!(
                 "no variable `{name}` (a gridded flow needs `u`, `v` over (time, y, x) or \
@@ -28,7 +29,7 @@ impl Reader {
         })
     }
 
-    fn dim_names(&self, name: &str) -> Result<Vec<String>> {
+    pub(crate) fn dim_names(&self, name: &str) -> Result<Vec<String>> {
         Ok(self
             .var(name)?
             .get_dims()
@@ -38,7 +39,7 @@ impl Reader {
     }
 
     /// A numeric attribute's first value.
-    fn attr_number(&self, var: &str, attr: &str) -> Result<Option<f64>> {
+    pub(crate) fn attr_number(&self, var: &str, attr: &str) -> Result<Option<f64>> {
         let Some(a) = self.var(var)?.get_attr(attr) else {
             return Ok(None);
         };
@@ -57,7 +58,7 @@ impl Reader {
 
     /// All values of `name` as f64, after `_FillValue`/`missing_value` (→ NaN) and
     /// `scale_factor`/`add_offset` (CF conventions).
-    fn read(&mut self, name: &str) -> Result<Vec<f64>> {
+    pub(crate) fn read(&mut self, name: &str) -> Result<Vec<f64>> {
         let var = self.var(name)?;
         // Check the declared size against the file before the reader allocates it.
         let count = var
@@ -115,7 +116,7 @@ impl Reader {
     }
 
     /// µs per unit of the `time` variable, from its `units` attribute (µs if absent).
-    fn time_scale(&self) -> Result<f64> {
+    pub(crate) fn time_scale(&self) -> Result<f64> {
         let Some(units) = self.var("time")?.get_attr_as_string("units") else {
             return Ok(1.0);
         };
@@ -277,14 +278,10 @@ impl<R: Read> HeaderCheck<R> {
     }
 }
 
-impl GriddedFlow {
-    /// Load a field from a NetCDF classic file: variables `u`, `v` (px/ms) with dimensions
-    /// (time, y, x) or (y, x); 1-D coordinate variables `x`, `y` (px, image coordinates) and,
-    /// for three dimensions, `time` (µs, or the unit its `units` attribute names: ms, s).
-    /// `_FillValue`/`missing_value` become NaN; `scale_factor`/`add_offset` are applied.
-    /// This is the layout of ebiv's NetCDF export.
-    pub fn from_netcdf(path: impl AsRef<Path>) -> Result<Self> {
-        let path = path.as_ref();
+impl Reader {
+    /// Open a NetCDF classic file after checking that its header cannot make the reader
+    /// allocate more than the file holds.
+    pub(crate) fn open(path: &Path) -> Result<Reader> {
         let context = path.display().to_string();
         let file = std::fs::File::open(path).map_err(|e| Error::io(path, e))?;
         let file_len = file.metadata().map_err(|e| Error::io(path, e))?.len();
@@ -306,11 +303,22 @@ impl GriddedFlow {
                 format!("not a readable NetCDF classic file ({e:?})"),
             )
         })?;
-        let mut r = Reader {
+        Ok(Reader {
             reader,
             context,
             file_len,
-        };
+        })
+    }
+}
+
+impl GriddedFlow {
+    /// Load a field from a NetCDF classic file: variables `u`, `v` (px/ms) with dimensions
+    /// (time, y, x) or (y, x); 1-D coordinate variables `x`, `y` (px, image coordinates) and,
+    /// for three dimensions, `time` (µs, or the unit its `units` attribute names: ms, s).
+    /// `_FillValue`/`missing_value` become NaN; `scale_factor`/`add_offset` are applied.
+    /// This is the layout of ebiv's NetCDF export.
+    pub fn from_netcdf(path: impl AsRef<Path>) -> Result<Self> {
+        let mut r = Reader::open(path.as_ref())?;
         let (xs, x_dim) = r.coordinate("x")?;
         let (ys, y_dim) = r.coordinate("y")?;
         let u_dims = r.dim_names("u")?;

@@ -1,14 +1,5 @@
-//! Errors of a measured field series against a known flow (simulator ground truth).
-//!
-//! Metrics as in algorithms.md §16.9 (Raffel et al. conventions): per-component bias
-//! (mean error) and random error (standard deviation), RMS of the end-point error, mean
-//! end-point error (AEE), share of valid vectors, and the dynamic velocity range
-//! DVR = max |v_true| / RMS error (Adrian 1997, Meas. Sci. Technol. 8:1393).
-//!
-//! [`envelope`] is the operating-envelope study of the two event estimators on simulated
-//! uniform flows (`ebiv bench envelope`).
-
-pub mod envelope;
+//! Errors of a measured field series against a known flow: [`field_errors`] (the summary
+//! the estimator tests print) and [`agreement`] of two series on one grid.
 
 use crate::field::FieldSeries;
 
