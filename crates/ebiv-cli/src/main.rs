@@ -50,6 +50,8 @@ enum Command {
     Simulate(cmd::simulate::SimulateArgs),
     /// Measure throughput on this machine, and the event estimators' operating envelope.
     Bench(cmd::bench::BenchArgs),
+    /// Errors of a vector field against the truth, or agreement of two fields, with a report.
+    Assess(Box<cmd::assess::AssessArgs>),
 }
 
 /// End quietly when the reader of standard output goes away (`ebiv info REC | head -1`), as
@@ -83,6 +85,7 @@ fn main() -> ExitCode {
         Command::Init(a) => cmd::process::init(a),
         Command::Simulate(a) => cmd::simulate::run(a),
         Command::Bench(a) => cmd::bench::run(a),
+        Command::Assess(a) => cmd::assess::run(a),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

@@ -25,6 +25,9 @@ mod options;
 pub mod report;
 mod truth;
 
+#[cfg(test)]
+mod tests;
+
 pub use binned::{ErrorBin, ErrorMap};
 pub use compare::{compare, Agreement, MatchedPair};
 pub use coverage::{spearman, Coverage};

@@ -39,7 +39,7 @@ pub fn error_map_figure(map: &ErrorMap, unit: &str) -> RgbImage {
     let bar = ColourBar::linear((0.0, top), format!("mean |e| [{unit}]"), inferno);
     let nodes = map.count.iter().filter(|&&c| c > 0).count();
     let notes = vec![format!(
-        "{nodes} of {} nodes with compared vectors; grey: none",
+        "{nodes} of {} nodes with compared vectors. grey: none",
         map.count.len()
     )];
     let (fig, mut img) = ImageFigure::new(
@@ -138,8 +138,8 @@ pub fn coverage_figure(c: &Coverage, unit: &str) -> RgbImage {
         .collect();
     let top = density.iter().copied().fold(normal(0.0), f64::max) * 1.15;
     let left = Panel {
-        heading: "e / σ, both components".into(),
-        x_label: "e / σ".into(),
+        heading: "e / sigma, both components".into(),
+        x_label: "e / sigma".into(),
         y_label: "density".into(),
         x_range: (-range, range),
         y_range: (0.0, top),
@@ -164,8 +164,8 @@ pub fn coverage_figure(c: &Coverage, unit: &str) -> RgbImage {
     let s_max = data_range(c.scatter.iter().map(|p| p[0]), (0.0, 1.0)).1;
     let e_max = data_range(c.scatter.iter().map(|p| p[1]), (0.0, 1.0)).1;
     let right = Panel {
-        heading: "|e| against σ".into(),
-        x_label: format!("σ [{unit}]"),
+        heading: "|e| against sigma".into(),
+        x_label: format!("sigma [{unit}]"),
         y_label: format!("|e| [{unit}]"),
         x_range: (0.0, s_max.max(1e-9)),
         y_range: (0.0, e_max.max(1e-9)),
@@ -187,15 +187,15 @@ pub fn coverage_figure(c: &Coverage, unit: &str) -> RgbImage {
         ],
         notes: vec![
             (None, format!("Spearman {:.2}", c.spearman)),
-            (Some(GREY), "|e| = σ".into()),
-            (Some(RED), "|e| = 2σ".into()),
+            (Some(GREY), "|e| = sigma".into()),
+            (Some(RED), "|e| = 2sigma".into()),
         ],
     };
     figure(
         &[left, right],
         Some("Coverage of the per-vector uncertainty"),
         &[format!(
-            "{} component errors with an uncertainty ({} without). Well-estimated σ: bars follow the curve, 68.3 % within ±1, 95.4 % within ±2.",
+            "{} component errors with an uncertainty ({} without). Well-estimated sigma: bars follow the curve, 68.3 % within ±1, 95.4 % within ±2.",
             c.samples, c.without_uncertainty
         )],
     )
@@ -210,7 +210,7 @@ pub fn fractional_figure(f: &FractionalHistogram) -> RgbImage {
     let top = heights.iter().copied().fold(1.0, f64::max) * 1.3;
     let panel = Panel {
         heading: "fractional displacement".into(),
-        x_label: "d − round(d) [px]".into(),
+        x_label: "d - round(d) [px]".into(),
         y_label: "count".into(),
         x_range: (-0.5, 0.5),
         y_range: (0.0, top),
@@ -311,8 +311,8 @@ pub fn differences_figure(g: &Agreement) -> RgbImage {
     let edges: Vec<f64> = (0..=bins).map(|b| b as f64 * hi / bins as f64).collect();
     let top = counts.iter().copied().fold(1.0, f64::max) * 1.2;
     let panel = Panel {
-        heading: "|Δv| = |v_a − v_b|".into(),
-        x_label: format!("|Δv| [{}]", g.unit),
+        heading: "|dv| = |v_a - v_b|".into(),
+        x_label: format!("|dv| [{}]", g.unit),
         y_label: "count".into(),
         x_range: (0.0, hi),
         y_range: (0.0, top),
