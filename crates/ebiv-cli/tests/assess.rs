@@ -21,13 +21,35 @@ fn simulate_process_and_assess_against_the_truth() {
         &path("rec.raw"),
     ]);
     assert!(o.status.success(), "{}", stderr(&o));
-    let o = ebiv(&["process", &path("rec.raw"), "--slab", "10ms", "-o", &path("field.nc")]);
+    let o = ebiv(&[
+        "process",
+        &path("rec.raw"),
+        "--slab",
+        "10ms",
+        "-o",
+        &path("field.nc"),
+    ]);
     assert!(o.status.success(), "{}", stderr(&o));
 
-    let o = ebiv(&["assess", &path("field.nc"), "--truth", &path("truth.nc"), "-o", &path("report")]);
+    let o = ebiv(&[
+        "assess",
+        &path("field.nc"),
+        "--truth",
+        &path("truth.nc"),
+        "-o",
+        &path("report"),
+    ]);
     assert!(o.status.success(), "{}", stderr(&o));
     let out = stdout(&o);
-    for text in ["compared with the truth", "RMS", "bias", "outliers", "dynamic velocity range", "peak locking", "wrote"] {
+    for text in [
+        "compared with the truth",
+        "RMS",
+        "bias",
+        "outliers",
+        "dynamic velocity range",
+        "peak locking",
+        "wrote",
+    ] {
         assert!(out.contains(text), "{text}: {out}");
     }
     let rms: f64 = out
@@ -63,17 +85,46 @@ fn simulate_process_and_assess_against_the_truth() {
     // The scenario's exact flow gives the same numbers for a uniform flow.
     let o = ebiv(&["assess", &path("field.nc"), "--truth-example", "uniform"]);
     assert!(o.status.success(), "{}", stderr(&o));
-    assert!(stdout(&o).contains(&format!("RMS {rms:.4}")), "{}", stdout(&o));
+    assert!(
+        stdout(&o).contains(&format!("RMS {rms:.4}")),
+        "{}",
+        stdout(&o)
+    );
 
     // Two fields: a field agrees with itself; its CSV export agrees with the NetCDF.
-    let o = ebiv(&["process", &path("rec.raw"), "--slab", "10ms", "-o", &path("field.csv")]);
+    let o = ebiv(&[
+        "process",
+        &path("rec.raw"),
+        "--slab",
+        "10ms",
+        "-o",
+        &path("field.csv"),
+    ]);
     assert!(o.status.success(), "{}", stderr(&o));
-    let o = ebiv(&["assess", &path("field.nc"), &path("field.csv"), "-o", &path("cmp")]);
+    let o = ebiv(&[
+        "assess",
+        &path("field.nc"),
+        &path("field.csv"),
+        "-o",
+        &path("cmp"),
+    ]);
     assert!(o.status.success(), "{}", stderr(&o));
     let out = stdout(&o);
-    assert!(out.contains("median |Δv| 0.0000 px/ms") && out.contains("0.0 % differ"), "{out}");
-    for name in ["agreement.json", "agreement.csv", "report.md", "scatter.png", "differences.png"] {
-        assert!(dir.path().join("cmp").join(name).is_file(), "{name} missing");
+    assert!(
+        out.contains("median |Δv| 0.0000 px/ms") && out.contains("0.0 % differ"),
+        "{out}"
+    );
+    for name in [
+        "agreement.json",
+        "agreement.csv",
+        "report.md",
+        "scatter.png",
+        "differences.png",
+    ] {
+        assert!(
+            dir.path().join("cmp").join(name).is_file(),
+            "{name} missing"
+        );
     }
 }
 
@@ -89,7 +140,10 @@ fn assess_errors_are_one_clear_line() {
     let o = ebiv(&["assess", &path("cols.csv"), "--truth-example", "uniform"]);
     assert!(!o.status.success());
     let err = stderr(&o);
-    assert!(err.contains("cols.csv") && err.contains("x, y, u and v"), "{err}");
+    assert!(
+        err.contains("cols.csv") && err.contains("x, y, u and v"),
+        "{err}"
+    );
     assert_eq!(err.lines().count(), 1, "{err}");
 
     std::fs::write(path("f.csv"), "x,y,u,v\n1,1,1,0\n").unwrap();

@@ -97,11 +97,7 @@ pub fn run(args: &AssessArgs) -> Result<(), ebiv::Error> {
     options.validate()?;
     let truth = load_truth(args)?;
     let field = read_field(&args.field, &read_options)?;
-    let assessment = assess(
-        &field,
-        &|x, y, t| truth.velocity(x, y, t),
-        &options,
-    );
+    let assessment = assess(&field, &|x, y, t| truth.velocity(x, y, t), &options);
     let context = ReportContext {
         field: args.field.display().to_string(),
         reference: truth.describe().to_string(),

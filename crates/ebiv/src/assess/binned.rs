@@ -152,7 +152,10 @@ mod tests {
         assert_eq!((bins[0].lo, bins[0].hi, bins[0].count), (0.0, 2.0, 2));
         assert_eq!((bins[0].aee, bins[0].bias[0]), (2.0, 2.0));
         assert!((bins[0].rms - 5f64.sqrt()).abs() < 1e-12);
-        assert_eq!((bins[1].count, bins[1].aee, bins[1].bias[0]), (1, 2.0, -2.0));
+        assert_eq!(
+            (bins[1].count, bins[1].aee, bins[1].bias[0]),
+            (1, 2.0, -2.0)
+        );
     }
 
     #[test]

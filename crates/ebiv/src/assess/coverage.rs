@@ -63,17 +63,26 @@ impl Coverage {
             if z.abs() > NORMALISED_RANGE {
                 outside += 1;
             } else {
-                let b = ((z + NORMALISED_RANGE) / (2.0 * NORMALISED_RANGE)
-                    * NORMALISED_BINS as f64) as usize;
+                let b = ((z + NORMALISED_RANGE) / (2.0 * NORMALISED_RANGE) * NORMALISED_BINS as f64)
+                    as usize;
                 hist[b.min(NORMALISED_BINS - 1)] += 1;
             }
             e_abs.push(e.abs());
             s_ok.push(s);
         }
         let n = e_abs.len();
-        let share = |k: usize| if n == 0 { f64::NAN } else { k as f64 / n as f64 };
+        let share = |k: usize| {
+            if n == 0 {
+                f64::NAN
+            } else {
+                k as f64 / n as f64
+            }
+        };
         let stride = n.div_ceil(MAX_SCATTER).max(1);
-        let scatter = (0..n).step_by(stride).map(|i| [s_ok[i], e_abs[i]]).collect();
+        let scatter = (0..n)
+            .step_by(stride)
+            .map(|i| [s_ok[i], e_abs[i]])
+            .collect();
         Coverage {
             samples: n,
             without_uncertainty: without,

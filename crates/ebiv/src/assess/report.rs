@@ -49,7 +49,8 @@ pub fn agreement_json(g: &Agreement, context: &ReportContext) -> String {
         map.remove("scatter");
         map.remove("differences");
     }
-    let value = serde_json::json!({ "a": context.field, "b": context.reference, "agreement": value });
+    let value =
+        serde_json::json!({ "a": context.field, "b": context.reference, "agreement": value });
     serde_json::to_string_pretty(&value).unwrap_or_default() + "\n"
 }
 
@@ -137,26 +138,82 @@ pub fn assessment_csv(a: &Assessment) -> String {
     let s = Some(c.samples);
     t.row("coverage", "samples", "uv", None, s, c.samples as f64, "1");
     let without = c.without_uncertainty as f64;
-    t.row("coverage", "without_uncertainty", "uv", None, None, without, "1");
-    t.row("coverage", "within_1_sigma", "uv", None, s, c.within_1_sigma, "1");
-    t.row("coverage", "within_2_sigma", "uv", None, s, c.within_2_sigma, "1");
+    t.row(
+        "coverage",
+        "without_uncertainty",
+        "uv",
+        None,
+        None,
+        without,
+        "1",
+    );
+    t.row(
+        "coverage",
+        "within_1_sigma",
+        "uv",
+        None,
+        s,
+        c.within_1_sigma,
+        "1",
+    );
+    t.row(
+        "coverage",
+        "within_2_sigma",
+        "uv",
+        None,
+        s,
+        c.within_2_sigma,
+        "1",
+    );
     t.row("coverage", "spearman", "uv", None, s, c.spearman, "1");
-    t.row("coverage", "rms_normalised", "uv", None, s, c.rms_normalised, "1");
+    t.row(
+        "coverage",
+        "rms_normalised",
+        "uv",
+        None,
+        s,
+        c.rms_normalised,
+        "1",
+    );
     let f = &a.fractional;
     for (b, &count) in f.counts.iter().enumerate() {
         let r = Some((f.edge(b), f.edge(b + 1)));
         t.row("fractional", "count", "uv", r, None, count as f64, "1");
     }
     let samples = Some(f.samples as usize);
-    t.row("fractional", "peak_locking_index", "uv", None, samples, f.peak_locking_index, "1");
-    t.row("fractional", "noise_level", "uv", None, samples, f.noise_level, "1");
+    t.row(
+        "fractional",
+        "peak_locking_index",
+        "uv",
+        None,
+        samples,
+        f.peak_locking_index,
+        "1",
+    );
+    t.row(
+        "fractional",
+        "noise_level",
+        "uv",
+        None,
+        samples,
+        f.noise_level,
+        "1",
+    );
     let m = &a.error_map;
     for (row, &y) in m.y.iter().enumerate() {
         for (col, &x) in m.x.iter().enumerate() {
             let i = row * m.x.len() + col;
             if m.count[i] > 0 {
                 let r = Some((x, y));
-                t.row("error_map", "aee", "", r, Some(m.count[i]), m.mean_error[i], u);
+                t.row(
+                    "error_map",
+                    "aee",
+                    "",
+                    r,
+                    Some(m.count[i]),
+                    m.mean_error[i],
+                    u,
+                );
             }
         }
     }
@@ -177,10 +234,30 @@ pub fn agreement_csv(g: &Agreement) -> String {
         ("median_difference", "", g.median_difference, u),
         ("mean_difference", "", g.mean_difference, u),
         ("rms_difference", "", g.rms_difference, u),
-        ("mean_component_difference", "u", g.mean_component_difference[0], u),
-        ("mean_component_difference", "v", g.mean_component_difference[1], u),
-        ("sd_component_difference", "u", g.sd_component_difference[0], u),
-        ("sd_component_difference", "v", g.sd_component_difference[1], u),
+        (
+            "mean_component_difference",
+            "u",
+            g.mean_component_difference[0],
+            u,
+        ),
+        (
+            "mean_component_difference",
+            "v",
+            g.mean_component_difference[1],
+            u,
+        ),
+        (
+            "sd_component_difference",
+            "u",
+            g.sd_component_difference[0],
+            u,
+        ),
+        (
+            "sd_component_difference",
+            "v",
+            g.sd_component_difference[1],
+            u,
+        ),
         ("threshold", "", g.threshold, u),
         ("beyond_share", "", g.beyond_share, "1"),
     ] {
@@ -354,7 +431,10 @@ pub fn assessment_markdown(a: &Assessment, context: &ReportContext) -> String {
             "RMS error without outliers",
             format!("{} {u}", val(a.rms_without_outliers)),
         ),
-        ("largest true speed", format!("{} {u}", val(a.max_true_speed))),
+        (
+            "largest true speed",
+            format!("{} {u}", val(a.max_true_speed)),
+        ),
         ("dynamic velocity range", val(a.dvr)),
         ("within ±1σ (68.3 % expected)", pct(c.within_1_sigma)),
         ("within ±2σ (95.4 % expected)", pct(c.within_2_sigma)),
@@ -381,7 +461,10 @@ pub fn assessment_markdown(a: &Assessment, context: &ReportContext) -> String {
         figures::ERROR_VS_SPEED
     );
     if a.by_events.is_empty() {
-        let _ = writeln!(s, "The field carries no event counts: no errors against events.\n");
+        let _ = writeln!(
+            s,
+            "The field carries no event counts: no errors against events.\n"
+        );
     } else {
         let _ = writeln!(
             s,
@@ -462,7 +545,10 @@ pub fn agreement_markdown(g: &Agreement, context: &ReportContext) -> String {
             "valid vectors of a without a value of b",
             g.without_b.to_string(),
         ),
-        ("median abs(Δv)", format!("{} {u}", val(g.median_difference))),
+        (
+            "median abs(Δv)",
+            format!("{} {u}", val(g.median_difference)),
+        ),
         ("mean abs(Δv)", format!("{} {u}", val(g.mean_difference))),
         ("RMS abs(Δv)", format!("{} {u}", val(g.rms_difference))),
         (

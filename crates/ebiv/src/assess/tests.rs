@@ -32,7 +32,10 @@ fn assessment_of_a_known_series() {
         ..AssessOptions::default()
     };
     let a = assess(&known_series(), &|_, _, _| (1.0, 0.0), &options);
-    assert_eq!((a.total, a.valid, a.compared, a.without_truth), (4, 3, 3, 0));
+    assert_eq!(
+        (a.total, a.valid, a.compared, a.without_truth),
+        (4, 3, 3, 0)
+    );
     assert_eq!(a.unit, "px/ms");
     assert!(close(a.valid_share, 0.75));
     assert!(close(a.bias[0], 0.0) && close(a.bias[1], 0.0));
@@ -157,7 +160,10 @@ fn comparison_on_one_grid() {
     assert!(close(g.rms_difference, 0.125f64.sqrt()));
     assert_eq!(g.scatter, vec![[1.0, 0.0, 1.5, 0.0], [2.0, 0.0, 2.0, 0.0]]);
     let csv = report::agreement_csv(&g);
-    assert!(csv.contains("agreement,median_difference,,,,2,0.25,px/ms"), "{csv}");
+    assert!(
+        csv.contains("agreement,median_difference,,,,2,0.25,px/ms"),
+        "{csv}"
+    );
 }
 
 #[test]

@@ -156,8 +156,14 @@ pub fn coverage_figure(c: &Coverage, unit: &str) -> RgbImage {
             },
         ],
         notes: vec![
-            (None, format!("within ±1: {:.1} %", 100.0 * c.within_1_sigma)),
-            (None, format!("within ±2: {:.1} %", 100.0 * c.within_2_sigma)),
+            (
+                None,
+                format!("within ±1: {:.1} %", 100.0 * c.within_1_sigma),
+            ),
+            (
+                None,
+                format!("within ±2: {:.1} %", 100.0 * c.within_2_sigma),
+            ),
             (Some(RED), "standard normal".into()),
         ],
     };

@@ -186,7 +186,10 @@ fn draw_layer(img: &mut RgbImage, axes: &Axes, layer: &Layer) {
             markers,
         } => {
             for w in points.windows(2) {
-                if [w[0].0, w[0].1, w[1].0, w[1].1].iter().all(|v| v.is_finite()) {
+                if [w[0].0, w[0].1, w[1].0, w[1].1]
+                    .iter()
+                    .all(|v| v.is_finite())
+                {
                     line(img, at(w[0]), at(w[1]), 2.0, *colour, &clip);
                 }
             }

@@ -140,7 +140,9 @@ pub(super) fn read(path: &Path, options: &FieldReadOptions) -> Result<FieldSerie
             r.time_scale()?
         };
         let t = r.read("time")?;
-        if t.iter().any(|v| !(v * factor).is_finite() || (v * factor).abs() > 9e18) {
+        if t.iter()
+            .any(|v| !(v * factor).is_finite() || (v * factor).abs() > 9e18)
+        {
             return Err(r.err("`time` holds values that are not times"));
         }
         let t: Vec<i64> = t.iter().map(|v| (v * factor).round() as i64).collect();
@@ -199,36 +201,52 @@ pub(super) fn read(path: &Path, options: &FieldReadOptions) -> Result<FieldSerie
     s.quantity = quantity;
     if let (Quantity::Displacement, Some(dt)) = (s.quantity, options.frame_interval_us) {
         let k = 1000.0 / dt;
-        s.u.iter_mut().chain(s.v.iter_mut()).for_each(|w| *w = (*w as f64 * k) as f32);
+        s.u.iter_mut()
+            .chain(s.v.iter_mut())
+            .for_each(|w| *w = (*w as f64 * k) as f32);
         s.quantity = Quantity::Velocity;
     }
     if has(&r, "status") {
         let st = read_len(&mut r, "status")?;
         s.status = st
             .iter()
-            .map(|&v| Status(if (0.0..=255.0).contains(&v) { v as u8 } else { 0 }))
+            .map(|&v| {
+                Status(if (0.0..=255.0).contains(&v) {
+                    v as u8
+                } else {
+                    0
+                })
+            })
             .collect();
         if let Some(i) = st.iter().position(|v| !(0.0..=255.0).contains(v)) {
-            return Err(r.err(format!("`status` holds {} (vector {i}), not 0 to 255", st[i])));
+            return Err(r.err(format!(
+                "`status` holds {} (vector {i}), not 0 to 255",
+                st[i]
+            )));
         }
     } else {
         s.ground_truth = true;
-        s.status = s
-            .u
-            .iter()
-            .zip(&s.v)
-            .map(|(u, v)| {
-                if u.is_finite() && v.is_finite() {
-                    Status::VALID
-                } else {
-                    Status::NO_EVENTS
-                }
-            })
-            .collect();
+        s.status =
+            s.u.iter()
+                .zip(&s.v)
+                .map(|(u, v)| {
+                    if u.is_finite() && v.is_finite() {
+                        Status::VALID
+                    } else {
+                        Status::NO_EVENTS
+                    }
+                })
+                .collect();
     }
     let counts = |v: Vec<f64>| -> Vec<u32> {
         v.iter()
-            .map(|&c| if c.is_finite() && c > 0.0 { c.min(u32::MAX as f64) as u32 } else { 0 })
+            .map(|&c| {
+                if c.is_finite() && c > 0.0 {
+                    c.min(u32::MAX as f64) as u32
+                } else {
+                    0
+                }
+            })
             .collect()
     };
     if has(&r, "peak") {

@@ -151,7 +151,10 @@ fn time_factor(c: &Column, context: &str) -> Result<f64> {
         "s" => Ok(1e6),
         other => Err(Error::unsupported(
             context,
-            format!("column `{}`: unknown time unit `{other}` (us, ms, s)", c.name),
+            format!(
+                "column `{}`: unknown time unit `{other}` (us, ms, s)",
+                c.name
+            ),
         )),
     }
 }
@@ -167,7 +170,11 @@ pub(super) fn read_str(
     for (k, line) in text.lines().enumerate().take(HEADER_LINES) {
         let stripped = strip_comment(line);
         let delimiter = Delimiter::of(stripped);
-        let columns: Vec<Column> = delimiter.split(stripped).into_iter().map(Column::parse).collect();
+        let columns: Vec<Column> = delimiter
+            .split(stripped)
+            .into_iter()
+            .map(Column::parse)
+            .collect();
         let has = |r: Role| columns.iter().any(|c| c.role == r);
         if has(Role::X) && has(Role::Y) && has(Role::U) && has(Role::V) {
             header = Some((k, delimiter, columns));
@@ -176,7 +183,13 @@ pub(super) fn read_str(
         file_scale = file_scale.or_else(|| pivlab_scale(line));
     }
     let Some((header_line, delimiter, columns)) = header else {
-        let first = text.lines().next().unwrap_or("").chars().take(80).collect::<String>();
+        let first = text
+            .lines()
+            .next()
+            .unwrap_or("")
+            .chars()
+            .take(80)
+            .collect::<String>();
         return Err(Error::unsupported(
             context,
             format!(
@@ -198,7 +211,9 @@ pub(super) fn read_str(
     let fy = length_factor(&columns[iy], context, scale)?;
     let mut unit_u = velocity_unit(&columns[iu], context, scale)?;
     let unit_v = velocity_unit(&columns[iv], context, scale)?;
-    if unit_u.quantity != unit_v.quantity || (unit_u.factor - unit_v.factor).abs() > 1e-12 * unit_u.factor.abs() {
+    if unit_u.quantity != unit_v.quantity
+        || (unit_u.factor - unit_v.factor).abs() > 1e-12 * unit_u.factor.abs()
+    {
         return Err(Error::unsupported(
             context,
             format!(
@@ -214,7 +229,10 @@ pub(super) fn read_str(
         };
     }
     let (time, basis) = match (col(Role::Time), col(Role::FieldIndex)) {
-        (Some(i), _) => (Some((i, time_factor(&columns[i], context)?)), TimeBasis::SlabCentre),
+        (Some(i), _) => (
+            Some((i, time_factor(&columns[i], context)?)),
+            TimeBasis::SlabCentre,
+        ),
         (None, Some(i)) => (Some((i, 1.0)), TimeBasis::PairIndex),
         (None, None) => (None, TimeBasis::PairIndex),
     };
@@ -232,7 +250,13 @@ pub(super) fn read_str(
         optional(Role::SlabUs),
     );
     let (i_uu, i_vu) = (optional(Role::UUnc), optional(Role::VUnc));
-    let ground_truth = i_status.is_none() && i_flags.is_none() && i_mask.is_none() && i_valid.is_none() && i_peak.is_none() && i_events.is_none() && context_is_truth(&columns);
+    let ground_truth = i_status.is_none()
+        && i_flags.is_none()
+        && i_mask.is_none()
+        && i_valid.is_none()
+        && i_peak.is_none()
+        && i_events.is_none()
+        && context_is_truth(&columns);
     let mut rows = Rows::default();
     let needed = columns.len();
     for (k, line) in text.lines().enumerate().skip(header_line + 1) {
@@ -287,7 +311,11 @@ pub(super) fn read_str(
         if opt(i_valid)?.is_some_and(|m| m == 0.0) {
             status = status.with(Status::MEDIAN_TEST);
         }
-        let (u, v) = if status.has_value() { (u, v) } else { (f32::NAN, f32::NAN) };
+        let (u, v) = if status.has_value() {
+            (u, v)
+        } else {
+            (f32::NAN, f32::NAN)
+        };
         let t = match time {
             Some((i, factor)) => {
                 let t = num(i)? * factor;
@@ -303,7 +331,9 @@ pub(super) fn read_str(
             None => 0,
         };
         let count = |i: Option<usize>| -> Result<u32> {
-            Ok(opt(i)?.filter(|c| c.is_finite() && *c >= 0.0).map_or(0, |c| c.min(u32::MAX as f64) as u32))
+            Ok(opt(i)?
+                .filter(|c| c.is_finite() && *c >= 0.0)
+                .map_or(0, |c| c.min(u32::MAX as f64) as u32))
         };
         rows.t.push(t);
         rows.x.push(num(ix)? * fx);
@@ -312,11 +342,14 @@ pub(super) fn read_str(
         rows.v.push(v);
         rows.status.push(status);
         rows.peak.push(opt(i_peak)?.map_or(f32::NAN, |p| p as f32));
-        rows.peak_ratio.push(opt(i_ratio)?.map_or(f32::NAN, |p| p as f32));
+        rows.peak_ratio
+            .push(opt(i_ratio)?.map_or(f32::NAN, |p| p as f32));
         rows.event_count.push(count(i_events)?);
         rows.slab_us.push(count(i_slab)?);
-        rows.u_unc.push(opt(i_uu)?.map_or(f32::NAN, |s| (s * unit_u.factor) as f32));
-        rows.v_unc.push(opt(i_vu)?.map_or(f32::NAN, |s| (s * unit_u.factor) as f32));
+        rows.u_unc
+            .push(opt(i_uu)?.map_or(f32::NAN, |s| (s * unit_u.factor) as f32));
+        rows.v_unc
+            .push(opt(i_vu)?.map_or(f32::NAN, |s| (s * unit_u.factor) as f32));
         rows.line.push(line_no);
     }
     let mut series = assemble(rows, context, basis)?;
@@ -325,7 +358,9 @@ pub(super) fn read_str(
     if ground_truth {
         series.time_basis = TimeBasis::Instant;
     }
-    series.attributes.push(("source".into(), context.to_string()));
+    series
+        .attributes
+        .push(("source".into(), context.to_string()));
     Ok(series)
 }
 
