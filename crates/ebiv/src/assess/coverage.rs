@@ -52,7 +52,7 @@ impl Coverage {
         let mut outside = 0;
         let (mut in1, mut in2, mut sq) = (0usize, 0usize, 0.0);
         for (&e, &s) in errors.iter().zip(sigmas) {
-            if !(s.is_finite() && s > 0.0) || !e.is_finite() {
+            if !(s.is_finite() && s > 0.0 && e.is_finite()) {
                 without += 1;
                 continue;
             }
