@@ -42,6 +42,6 @@ use crate::field::FieldSeries;
 /// Standard uncertainties (σ_u, σ_v) of vector `i` in the series' velocity unit, NaN where
 /// unknown.
 pub(crate) fn uncertainty(series: &FieldSeries, i: usize) -> [f64; 2] {
-    let _ = (series, i);
-    [f64::NAN; 2]
+    let get = |v: &[f32]| v.get(i).map_or(f64::NAN, |&s| s as f64);
+    [get(&series.u_unc), get(&series.v_unc)]
 }

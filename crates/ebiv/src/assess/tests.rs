@@ -69,6 +69,24 @@ fn assessment_of_a_known_series() {
     assert_eq!(a.fractional.peak_locking_index, 0.0);
     // Without uncertainties every component is left out of the coverage.
     assert_eq!(a.coverage.samples + a.coverage.without_uncertainty, 6);
+    assert_eq!(a.coverage.samples, 0);
+}
+
+#[test]
+fn coverage_of_known_uncertainties() {
+    // Errors (0.125, 0), (−0.125, 0.25), (0, −0.25); σ = 0.2 for u, 0.2 and NaN for v.
+    let mut s = known_series();
+    s.u_unc[..3].fill(0.2);
+    s.v_unc[..3].copy_from_slice(&[0.2, 0.2, f32::NAN]);
+    let a = assess(&s, &|_, _, _| (1.0, 0.0), &AssessOptions::default());
+    let c = &a.coverage;
+    // e/σ: 0.625, 0, −0.625 (u); 0, 1.25 (v); one v left out.
+    assert_eq!((c.samples, c.without_uncertainty), (5, 1));
+    assert!(close(c.within_1_sigma, 0.8) && close(c.within_2_sigma, 1.0));
+    let rms = ((2.0 * 0.390625 + 1.5625) / 5.0f64).sqrt();
+    assert!(close(c.rms_normalised, rms), "{}", c.rms_normalised);
+    // All σ equal: no rank correlation.
+    assert!(c.spearman.is_nan());
 }
 
 #[test]

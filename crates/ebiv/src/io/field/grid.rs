@@ -116,5 +116,6 @@ pub(super) fn assemble(rows: Rows, context: &str, basis: TimeBasis) -> Result<Fi
 
 /// Attach per-vector standard uncertainties to `series`.
 pub(super) fn set_uncertainty(series: &mut FieldSeries, u_unc: Vec<f32>, v_unc: Vec<f32>) {
-    let _ = (series, u_unc, v_unc);
+    series.u_unc = u_unc;
+    series.v_unc = v_unc;
 }

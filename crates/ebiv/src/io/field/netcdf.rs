@@ -199,13 +199,6 @@ pub(super) fn read(path: &Path, options: &FieldReadOptions) -> Result<FieldSerie
     s.u = to_f32(read_len(&mut r, "u")?, factor);
     s.v = to_f32(read_len(&mut r, "v")?, factor * v_sign);
     s.quantity = quantity;
-    if let (Quantity::Displacement, Some(dt)) = (s.quantity, options.frame_interval_us) {
-        let k = 1000.0 / dt;
-        s.u.iter_mut()
-            .chain(s.v.iter_mut())
-            .for_each(|w| *w = (*w as f64 * k) as f32);
-        s.quantity = Quantity::Velocity;
-    }
     if has(&r, "status") {
         let st = read_len(&mut r, "status")?;
         s.status = st
@@ -265,6 +258,15 @@ pub(super) fn read(path: &Path, options: &FieldReadOptions) -> Result<FieldSerie
         let uu = to_f32(read_len(&mut r, "u_unc")?, factor);
         let vu = to_f32(read_len(&mut r, "v_unc")?, factor);
         set_uncertainty(&mut s, uu, vu);
+    }
+    if let (Quantity::Displacement, Some(dt)) = (s.quantity, options.frame_interval_us) {
+        let k = 1000.0 / dt;
+        s.u.iter_mut()
+            .chain(s.v.iter_mut())
+            .chain(s.u_unc.iter_mut())
+            .chain(s.v_unc.iter_mut())
+            .for_each(|w| *w = (*w as f64 * k) as f32);
+        s.quantity = Quantity::Velocity;
     }
     s.calibration = calibration;
     s.time_origin_us = global_number(&r, "time_origin_us")

@@ -14,7 +14,11 @@ fn series() -> FieldSeries {
         f.peak_ratio[i] = 1.5 + i as f32;
         f.event_count[i] = 100 + i as u32;
         f.slab_us[i] = 10_000;
+        f.u_unc[i] = 0.01 * (i + 1) as f32;
+        f.v_unc[i] = 0.02 * (i + 1) as f32;
     }
+    f.u_unc[3] = f32::NAN;
+    f.v_unc[3] = f32::NAN;
     f.u[3] = f32::NAN;
     f.v[3] = f32::NAN;
     f.status[3] = Status::LOW_PEAK_RATIO;
@@ -36,6 +40,10 @@ fn assert_same(a: &FieldSeries, b: &FieldSeries, quality: bool) {
     assert_eq!(a.t_us, b.t_us);
     assert!(same_nan(&a.u, &b.u), "{:?} {:?}", a.u, b.u);
     assert!(same_nan(&a.v, &b.v), "{:?} {:?}", a.v, b.v);
+    if !a.ground_truth {
+        assert!(same_nan(&a.u_unc, &b.u_unc), "{:?} {:?}", a.u_unc, b.u_unc);
+        assert!(same_nan(&a.v_unc, &b.v_unc), "{:?} {:?}", a.v_unc, b.v_unc);
+    }
     assert_eq!(a.quantity, b.quantity);
     if quality {
         assert_eq!(a.status, b.status);
