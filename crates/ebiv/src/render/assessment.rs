@@ -200,10 +200,14 @@ pub fn coverage_figure(c: &Coverage, unit: &str) -> RgbImage {
     figure(
         &[left, right],
         Some("Coverage of the per-vector uncertainty"),
-        &[format!(
-            "{} component errors with an uncertainty ({} without). Well-estimated sigma: bars follow the curve, 68.3 % within ±1, 95.4 % within ±2.",
-            c.samples, c.without_uncertainty
-        )],
+        &[
+            format!(
+                "{} component errors with an uncertainty ({} without).",
+                c.samples, c.without_uncertainty
+            ),
+            "Well-estimated sigma: bars follow the curve, 68.3 % within ±1, 95.4 % within ±2."
+                .into(),
+        ],
     )
 }
 
@@ -448,4 +452,58 @@ pub fn write_agreement_report(
         written.push(p);
     }
     Ok(written)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::assess::{assess, compare, AssessOptions, CompareOptions};
+    use crate::field::{FieldSeries, Status};
+
+    /// A 12 × 8 grid over two fields with deterministic errors and uncertainties.
+    fn series() -> FieldSeries {
+        let x = FieldSeries::axis(8.0, 184.0, 16.0);
+        let y = FieldSeries::axis(8.0, 120.0, 16.0);
+        let mut s = FieldSeries::new(x, y, vec![0, 10_000]);
+        for i in 0..s.u.len() {
+            let e = ((i as f32 * 0.731).sin()) * 0.05;
+            s.u[i] = 1.0 + 0.01 * (i % 12) as f32 + e;
+            s.v[i] = 0.5 - e;
+            s.u_unc[i] = 0.03;
+            s.v_unc[i] = 0.04;
+            s.status[i] = Status::VALID;
+            s.slab_us[i] = 10_000;
+            s.event_count[i] = 50 + (i as u32 * 37) % 400;
+        }
+        s
+    }
+
+    #[test]
+    fn reports_write_every_file_and_figure() {
+        let s = series();
+        let a = assess(
+            &s,
+            &|x, _, _| (1.0 + 0.01 * ((x - 8.0) / 16.0), 0.5),
+            &AssessOptions::default(),
+        );
+        assert_eq!(a.coverage.samples, 2 * s.u.len());
+        let dir = tempfile::tempdir().unwrap();
+        let written = write_assessment_report(dir.path(), &a, &Default::default()).unwrap();
+        assert_eq!(written.len(), 8);
+        for p in &written {
+            assert!(std::fs::metadata(p).unwrap().len() > 100, "{}", p.display());
+        }
+        let img = image::open(dir.path().join(figures::COVERAGE)).unwrap();
+        assert!(img.width() > 600 && img.height() > 300);
+        let mut b = s.clone();
+        b.u.iter_mut().for_each(|u| *u += 0.1);
+        let g = compare(&s, &b, &CompareOptions::default()).unwrap();
+        let written = write_agreement_report(dir.path(), &g, &Default::default()).unwrap();
+        assert_eq!(written.len(), 5);
+        if let Some(out) = std::env::var_os("EBIV_FIGURES") {
+            for name in [figures::COVERAGE, figures::FRACTIONAL, figures::SCATTER] {
+                let _ = std::fs::copy(dir.path().join(name), std::path::Path::new(&out).join(name));
+            }
+        }
+    }
 }
