@@ -13,6 +13,7 @@
 //! timing ([`frame`]), cross-correlation PIV on frames and pulsed EBIV ([`piv`]), the settings
 //! of a run ([`settings`]), outputs ([`export`], [`render`]).
 
+pub mod activity;
 pub mod assess;
 pub mod deform;
 pub mod error;
