@@ -15,16 +15,33 @@ pub struct InfoArgs {
     #[arg(long)]
     pub json: bool,
     #[command(flatten)]
+    pub activity: super::activity::ActivityArgs,
+    #[command(flatten)]
     pub input: InputArgs,
 }
 
 pub fn run(args: &InfoArgs) -> Result<(), ebiv::Error> {
     let options = args.input.read_options()?;
     let mut stats = RecordingStats::new();
-    let reader = super::stream_file(&args.file, &options, |_, batch| {
+    let mut activity = None;
+    let reader = super::stream_file(&args.file, &options, |reader, batch| {
         stats.add(batch);
+        if args.activity.activity {
+            if activity.is_none() {
+                let geometry = reader.metadata().geometry;
+                activity = Some(args.activity.start(&args.file, &options, geometry)?);
+            }
+            if let Some(run) = activity.as_mut() {
+                run.add(batch)?;
+            }
+        }
         Ok(true)
     })?;
+    if args.activity.activity && activity.is_none() {
+        let geometry = reader.metadata().geometry;
+        activity = Some(args.activity.start(&args.file, &options, geometry)?);
+    }
+    let activity = activity.map(|run| run.finish());
     let meta = reader.metadata();
     let report = reader.report();
     let file_bytes = std::fs::metadata(&args.file).map(|m| m.len()).unwrap_or(0);
@@ -38,6 +55,7 @@ pub fn run(args: &InfoArgs) -> Result<(), ebiv::Error> {
             "mean_rate_ev_per_s": stats.mean_rate(),
             "peak_rate_ev_per_s": stats.peak_rate(),
             "report": report,
+            "activity": activity.as_ref().map(|(r, _)| r),
         });
         println!(
             "{}",
@@ -132,6 +150,9 @@ pub fn run(args: &InfoArgs) -> Result<(), ebiv::Error> {
     }
     for w in &report.warnings {
         println!("warning     {w}");
+    }
+    if let Some((r, selection)) = &activity {
+        super::activity::print(r, selection);
     }
     Ok(())
 }

@@ -1,5 +1,6 @@
 //! One module per subcommand.
 
+pub mod activity;
 pub mod assess;
 pub mod bench;
 pub mod convert;

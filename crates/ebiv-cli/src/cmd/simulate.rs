@@ -15,7 +15,7 @@ pub struct SimulateArgs {
     #[arg(required_unless_present_any = ["example", "print_example", "list_examples"])]
     pub scenario: Option<PathBuf>,
     /// Run a ready scenario instead: uniform, turntable, vortex, shear-layer, mixing-layer,
-    /// paper-rate (see --list-examples).
+    /// paper-rate, wallflow (see --list-examples).
     #[arg(long, value_name = "NAME", conflicts_with = "scenario")]
     pub example: Option<String>,
     /// Print a ready scenario's TOML (to edit and pass back) and exit.

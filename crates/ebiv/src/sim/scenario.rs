@@ -249,7 +249,7 @@ impl Default for TruthSpec {
 }
 
 /// The ready scenarios: name, one-line description, TOML.
-pub const EXAMPLES: [(&str, &str, &str); 6] = [
+pub const EXAMPLES: [(&str, &str, &str); 7] = [
     (
         "uniform",
         "uniform flow at 2 px/ms, 640x480, gen4 sensor",
@@ -280,11 +280,16 @@ pub const EXAMPLES: [(&str, &str, &str); 6] = [
         "1280x720 at about 20 M events/s, the EBIV paper's data rate (benchmark scene)",
         include_str!("examples/paper_rate.toml"),
     ),
+    (
+        "wallflow",
+        "the EBIV paper's wall flow as its camera saw it, 1280x720, imx636 sensor (calibration scene)",
+        include_str!("examples/wallflow.toml"),
+    ),
 ];
 
 impl Scenario {
     /// A scenario of `flow` seen for `duration_us` by a `width` × `height` sensor of the
-    /// preset `preset` (`ideal`, `gen4` or `noisy`), everything else at the defaults of a
+    /// preset `preset` (`ideal`, `gen4`, `imx636` or `noisy`), everything else at the defaults of a
     /// scenario file that leaves it out: seed 1, start 0, the default [`SeedingParams`],
     /// continuous light ([`IlluminationParams`]), the sampling for that light
     /// ([`Sampling::resolve`]) and the default [`TruthSpec`]. Change the public fields to
@@ -346,7 +351,7 @@ impl Scenario {
             Error::parameter(
                 "sensor.preset",
                 format!(
-                    "`{}` is not a preset; use ideal, gen4 or noisy",
+                    "`{}` is not a preset; use ideal, gen4, imx636 or noisy",
                     self.sensor.preset
                 ),
             )
