@@ -20,6 +20,42 @@ fn info_json_reports_counts_and_header() {
     assert_eq!(v["report"]["out_of_range"], 0);
 }
 
+/// `info --activity` prints the pixel activity of docs/calibration.md's real column, and
+/// asks for a sensor size where the file states none.
+#[test]
+fn info_activity_of_the_real_wall_flow() {
+    let Some(file) = data("ebiv/wallflow_slice2.npz") else {
+        return;
+    };
+    let f = file.to_str().unwrap();
+    let out = ebiv(&["info", f, "--geometry", "512x512", "--activity", "--polarity", "pos"]);
+    assert!(out.status.success(), "{}", stderr(&out));
+    let text = stdout(&out);
+    for line in [
+        "median 1.0, 90th percentile 1.0",
+        "10/50/90 %: 4.03 / 7.50 / 14.05 ms (8231 gaps)",
+        "30.9 % (81008 of 262144)",
+        "5/50/95 %: 93 / 266 / 501 (288 windows in 2 slabs)",
+        "25/50/75 %: 1.56 / 2.08 / 3.20 px (1418 trails)",
+    ] {
+        assert!(text.contains(line), "{line} not in\n{text}");
+    }
+    let cropped = ebiv(&[
+        "info", f, "--activity", "--roi", "0,0,256,256", "--time", "5ms:15ms", "--window", "32",
+        "--slab", "5ms", "--json",
+    ]);
+    assert!(cropped.status.success(), "{}", stderr(&cropped));
+    let v: serde_json::Value = serde_json::from_str(&stdout(&cropped)).unwrap();
+    assert_eq!(v["activity"]["pixels"], 65536);
+    assert_eq!(v["activity"]["slabs"], 2);
+    assert_eq!(v["activity"]["window_cells"], 128);
+    let no_size = ebiv(&["info", f, "--activity"]);
+    assert!(!no_size.status.success());
+    assert!(stderr(&no_size).contains("--geometry"), "{}", stderr(&no_size));
+    let no_flag = ebiv(&["info", f, "--window", "40"]);
+    assert!(!no_flag.status.success());
+}
+
 #[test]
 fn info_text_names_format_and_duration() {
     let Some(file) = data("prophesee/evt3_test_pedestrians.raw") else {

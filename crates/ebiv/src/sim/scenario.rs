@@ -282,7 +282,7 @@ pub const EXAMPLES: [(&str, &str, &str); 7] = [
     ),
     (
         "wallflow",
-        "the EBIV paper's wall flow as its camera saw it, 1280x720, imx636 sensor (calibration scene)",
+        "the EBIV paper's wall flow as its camera saw it: stream with eddies, 1280x720, imx636 sensor",
         include_str!("examples/wallflow.toml"),
     ),
 ];
