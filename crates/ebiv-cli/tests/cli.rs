@@ -28,7 +28,15 @@ fn info_activity_of_the_real_wall_flow() {
         return;
     };
     let f = file.to_str().unwrap();
-    let out = ebiv(&["info", f, "--geometry", "512x512", "--activity", "--polarity", "pos"]);
+    let out = ebiv(&[
+        "info",
+        f,
+        "--geometry",
+        "512x512",
+        "--activity",
+        "--polarity",
+        "pos",
+    ]);
     assert!(out.status.success(), "{}", stderr(&out));
     let text = stdout(&out);
     for line in [
@@ -41,8 +49,18 @@ fn info_activity_of_the_real_wall_flow() {
         assert!(text.contains(line), "{line} not in\n{text}");
     }
     let cropped = ebiv(&[
-        "info", f, "--activity", "--roi", "0,0,256,256", "--time", "5ms:15ms", "--window", "32",
-        "--slab", "5ms", "--json",
+        "info",
+        f,
+        "--activity",
+        "--roi",
+        "0,0,256,256",
+        "--time",
+        "5ms:15ms",
+        "--window",
+        "32",
+        "--slab",
+        "5ms",
+        "--json",
     ]);
     assert!(cropped.status.success(), "{}", stderr(&cropped));
     let v: serde_json::Value = serde_json::from_str(&stdout(&cropped)).unwrap();
@@ -51,7 +69,11 @@ fn info_activity_of_the_real_wall_flow() {
     assert_eq!(v["activity"]["window_cells"], 128);
     let no_size = ebiv(&["info", f, "--activity"]);
     assert!(!no_size.status.success());
-    assert!(stderr(&no_size).contains("--geometry"), "{}", stderr(&no_size));
+    assert!(
+        stderr(&no_size).contains("--geometry"),
+        "{}",
+        stderr(&no_size)
+    );
     let no_flag = ebiv(&["info", f, "--window", "40"]);
     assert!(!no_flag.status.success());
 }

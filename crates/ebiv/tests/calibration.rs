@@ -16,14 +16,26 @@ fn simulated_wallflow(preset: &str, size: u32) -> ActivityReport {
     scenario.sensor.width = size;
     scenario.sensor.height = size;
     scenario.sensor.preset = preset.into();
-    let mut events = scenario.simulation().unwrap().run(None, &|_| {}).unwrap().events;
+    let mut events = scenario
+        .simulation()
+        .unwrap()
+        .run(None, &|_| {})
+        .unwrap()
+        .events;
     EventFilter {
         polarity: PolaritySelection::Positive,
         ..EventFilter::default()
     }
     .apply(&mut events);
     let geometry = Geometry::new(size, size);
-    Activity::measure(&events, geometry, 10_000, Some(30_000), ActivitySettings::default()).unwrap()
+    Activity::measure(
+        &events,
+        geometry,
+        10_000,
+        Some(30_000),
+        ActivitySettings::default(),
+    )
+    .unwrap()
 }
 
 #[test]
@@ -58,7 +70,8 @@ fn real_wallflow_slice_activity() {
     let Some(dir) = common::data_dir() else {
         return;
     };
-    let rec = ebiv::io::read_all(dir.join("ebiv/wallflow_slice2.npz"), &Default::default()).unwrap();
+    let rec =
+        ebiv::io::read_all(dir.join("ebiv/wallflow_slice2.npz"), &Default::default()).unwrap();
     let t0 = rec.events.t[0];
     let r = Activity::measure(
         &rec.events,
@@ -73,7 +86,10 @@ fn real_wallflow_slice_activity() {
     assert_eq!(r.events_per_active_pixel, Some([1.0, 1.0]));
     assert_eq!(r.gap_us, Some([4_032.0, 7_495.0, 14_048.0]));
     let w = r.window_events.unwrap();
-    assert!((w[0] - 92.75).abs() < 1e-9 && w[1] == 266.0 && (w[2] - 501.3).abs() < 1e-9, "{w:?}");
+    assert!(
+        (w[0] - 92.75).abs() < 1e-9 && w[1] == 266.0 && (w[2] - 501.3).abs() < 1e-9,
+        "{w:?}"
+    );
     assert_eq!(r.trail_width_px, Some([1.56, 2.08, 3.2]));
     assert_eq!(r.trails, 1418);
 }

@@ -58,7 +58,11 @@ impl ActivityArgs {
         geometry: Option<Geometry>,
     ) -> Result<ActivityRun, ebiv::Error> {
         let first = ebiv::process::first_event_time(path, options)?;
-        let origin = if self.absolute_time { 0 } else { first.unwrap_or(0) };
+        let origin = if self.absolute_time {
+            0
+        } else {
+            first.unwrap_or(0)
+        };
         let (start, end) = self.time_range.unwrap_or((None, None));
         let filter = EventFilter {
             t_start: start.map(|s| s + origin),
@@ -127,9 +131,9 @@ pub fn print(report: &ActivityReport, selection: &str) {
     println!("activity    {selection}");
     println!("  events                            {}", report.events);
     match report.events_per_active_pixel {
-        Some([m, p90]) => println!(
-            "  events per active pixel           median {m:.1}, 90th percentile {p90:.1}"
-        ),
+        Some([m, p90]) => {
+            println!("  events per active pixel           median {m:.1}, 90th percentile {p90:.1}")
+        }
         None => println!("  events per active pixel           none (no events)"),
     }
     match report.gap_us {

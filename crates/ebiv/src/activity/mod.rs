@@ -171,7 +171,10 @@ impl Activity {
     /// Add a batch. Events outside the sensor are an error (crop with a region first); events
     /// before the origin or at or after the end are ignored.
     pub fn add(&mut self, batch: &EventBuffer) -> Result<()> {
-        let (w, win) = (self.geometry.width as usize, self.settings.window_px as usize);
+        let (w, win) = (
+            self.geometry.width as usize,
+            self.settings.window_px as usize,
+        );
         for i in 0..batch.len() {
             let (t, x, y) = (batch.t[i], batch.x[i] as u32, batch.y[i] as u32);
             if t < self.origin_us || self.end_us.is_some_and(|e| t >= e) {
@@ -192,7 +195,10 @@ impl Activity {
             self.count[k] = self.count[k].saturating_add(1);
             let last = self.last_t[k];
             if last != i64::MIN {
-                *self.gaps.entry(gap_key(t.saturating_sub(last).max(0))).or_default() += 1;
+                *self
+                    .gaps
+                    .entry(gap_key(t.saturating_sub(last).max(0)))
+                    .or_default() += 1;
             }
             self.last_t[k] = t;
             let slab = (t - self.origin_us) / self.settings.slab_us;
@@ -260,7 +266,8 @@ impl Activity {
         let pairs = |h: &HashMap<u32, u64>, scale: f64| -> Vec<(f64, u64)> {
             h.iter().map(|(&v, &c)| (v as f64 * scale, c)).collect()
         };
-        let gap_pairs: Vec<(f64, u64)> = self.gaps.iter().map(|(&k, &c)| (gap_value(k), c)).collect();
+        let gap_pairs: Vec<(f64, u64)> =
+            self.gaps.iter().map(|(&k, &c)| (gap_value(k), c)).collect();
         let pixels = self.geometry.pixels() as u64;
         let window_cells = self.window_hist.values().sum();
         let trails = self.width_hist.values().sum();
@@ -268,7 +275,11 @@ impl Activity {
             events: self.events,
             pixels,
             active_pixels: active,
-            active_share: if pixels > 0 { active as f64 / pixels as f64 } else { 0.0 },
+            active_share: if pixels > 0 {
+                active as f64 / pixels as f64
+            } else {
+                0.0
+            },
             events_per_active_pixel: quantile::quantiles(pairs(&per_pixel, 1.0), &[0.5, 0.9])
                 .map(|q| [q[0], q[1]]),
             gaps: self.gaps.values().sum(),

@@ -62,6 +62,9 @@ mod tests {
         assert_eq!(q[0], 1.0);
         assert!((q[1] - 3.8).abs() < 1e-12);
         assert!(quantiles(Vec::new(), &[0.5]).is_none());
-        assert_eq!(quantiles(vec![(7.0, 1)], &[0.0, 0.5, 1.0]).unwrap(), [7.0; 3]);
+        assert_eq!(
+            quantiles(vec![(7.0, 1)], &[0.0, 0.5, 1.0]).unwrap(),
+            [7.0; 3]
+        );
     }
 }

@@ -11,7 +11,14 @@ fn counts_gaps_and_share_by_hand() {
     // Gaps: [100, 300, 1000] → 10th 100 + 0.2·200 = 140, median 300, 90th 300 + 0.8·700 = 860.
     // Active share 3/16.
     let mut b = EventBuffer::new();
-    for (t, x, y) in [(0, 0, 0), (50, 1, 0), (100, 0, 0), (400, 0, 0), (700, 3, 3), (1050, 1, 0)] {
+    for (t, x, y) in [
+        (0, 0, 0),
+        (50, 1, 0),
+        (100, 0, 0),
+        (400, 0, 0),
+        (700, 3, 3),
+        (1050, 1, 0),
+    ] {
         b.push(t, x, y, 1);
     }
     let r = Activity::measure(&b, Geometry::new(4, 4), 0, None, settings(2, 500)).unwrap();
@@ -72,7 +79,14 @@ fn trail_width_over_slabs() {
             b.push(1_100 + x as i64, x, y, 1);
         }
     }
-    let r = Activity::measure(&b, Geometry::new(30, 10), 0, Some(2_000), settings(10, 1_000)).unwrap();
+    let r = Activity::measure(
+        &b,
+        Geometry::new(30, 10),
+        0,
+        Some(2_000),
+        settings(10, 1_000),
+    )
+    .unwrap();
     assert_eq!(r.trails, 2);
     let w = r.trail_width_px.unwrap();
     assert!((w[1] - 2.5).abs() < 1e-9, "{w:?}");
@@ -98,6 +112,9 @@ fn long_gaps_keep_ten_significant_bits() {
     }
     for gap in [EXACT_GAP_US, 3_000_001, 1 << 40] {
         let v = gap_value(gap_key(gap));
-        assert!(v <= gap as f64 && (gap as f64 - v) / (gap as f64) < 1.0 / 1024.0, "{gap} {v}");
+        assert!(
+            v <= gap as f64 && (gap as f64 - v) / (gap as f64) < 1.0 / 1024.0,
+            "{gap} {v}"
+        );
     }
 }

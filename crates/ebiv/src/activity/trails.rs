@@ -69,10 +69,12 @@ fn group_width(group: &[(f64, f64)]) -> Option<f64> {
     // Principal axis of the 2×2 covariance: angle ½·atan2(2 s_xy, s_xx − s_yy).
     let angle = 0.5 * (2.0 * sxy).atan2(sxx - syy);
     let (c, s) = (angle.cos(), angle.sin());
-    let (lo, hi) = group.iter().fold((f64::MAX, f64::MIN), |(lo, hi), &(x, y)| {
-        let p = (x - mx) * c + (y - my) * s;
-        (lo.min(p), hi.max(p))
-    });
+    let (lo, hi) = group
+        .iter()
+        .fold((f64::MAX, f64::MIN), |(lo, hi), &(x, y)| {
+            let p = (x - mx) * c + (y - my) * s;
+            (lo.min(p), hi.max(p))
+        });
     let length = hi - lo + 1.0;
     let w = n / length;
     (length >= ELONGATION * w).then_some(w)
@@ -92,12 +94,16 @@ mod tests {
     fn horizontal_and_vertical_bands() {
         // A 3×15 band along x and a 2×12 band along y, apart: widths 3 and 2.
         let img = image(40, 30, |x, y| {
-            (2..17).contains(&x) && (4..7).contains(&y) || (30..32).contains(&x) && (10..22).contains(&y)
+            (2..17).contains(&x) && (4..7).contains(&y)
+                || (30..32).contains(&x) && (10..22).contains(&y)
         });
         let mut w = trail_widths(&img, 40, 30);
         w.sort_by(f64::total_cmp);
         assert_eq!(w.len(), 2);
-        assert!((w[0] - 2.0).abs() < 1e-9 && (w[1] - 3.0).abs() < 1e-9, "{w:?}");
+        assert!(
+            (w[0] - 2.0).abs() < 1e-9 && (w[1] - 3.0).abs() < 1e-9,
+            "{w:?}"
+        );
     }
 
     #[test]
@@ -115,7 +121,9 @@ mod tests {
     fn blobs_and_dots_are_not_trails() {
         // A 5×5 square (not elongated), a 1×5 line (too few pixels), a lone pixel.
         let img = image(30, 10, |x, y| {
-            (1..6).contains(&x) && (1..6).contains(&y) || (10..15).contains(&x) && y == 3 || x == 25 && y == 8
+            (1..6).contains(&x) && (1..6).contains(&y)
+                || (10..15).contains(&x) && y == 3
+                || x == 25 && y == 8
         });
         assert!(trail_widths(&img, 30, 10).is_empty());
         assert!(trail_widths(&[], 0, 0).is_empty());

@@ -23,7 +23,7 @@ pub enum BenchWhat {
     /// measured): events per second and bytes per second.
     Decode(DecodeBenchArgs),
     /// Event generation rate of the simulator on a scenario (default: the `paper-rate`
-    /// example, 1280x720 at about 20 M events/s) with the full `gen4` sensor model.
+    /// example, 1280x720 at about 20 M events/s) with the full `imx636` sensor model.
     Simulate(SimulateBenchArgs),
     /// Time per second of recording of both estimators at the EBIV paper's data rate and
     /// settings (simulated 1280x720 at about 20 M events/s, 40x40 px windows, 20 px step,

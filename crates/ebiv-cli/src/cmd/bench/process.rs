@@ -17,8 +17,8 @@ pub struct ProcessBenchArgs {
     /// Simulated recording length (fields every 10 ms over it).
     #[arg(long, default_value = "200ms", value_parser = ebiv::units::parse_us)]
     pub duration: i64,
-    /// Seeding density in particles per pixel, instead of the `paper-rate` scene's 0.00152
-    /// (20.1 M events/s over one second, the paper's rate).
+    /// Seeding density in particles per pixel, instead of the `paper-rate` scene's 0.0092
+    /// (19.9 M events/s over one second, the paper's rate).
     #[arg(long)]
     pub density: Option<f64>,
     /// Window size in px (square windows, one pass).

@@ -98,7 +98,8 @@ fn cell_index(a: f32, limit: f32) -> u32 {
 /// Into `keys`, per time of `t`, a key whose order is the time's [`f32::total_cmp`] order:
 /// `(ordered bits << 32) | scrambled index` ([`index_of`] recovers the index). Sorting the
 /// keys as integers orders the events by time without the indirect loads of a comparison of
-/// times through indices (159 M of the vote's 666 M instructions on two paper-rate fields).
+/// times through indices (159 M of the vote's 666 M instructions on two fields of a 1280×720
+/// uniform flow of 0.00152 particles per pixel, `gen4`).
 ///
 /// Equal times, frequent with µs time stamps, are ordered by the index multiplied by an odd
 /// constant (a bijection of `u32`), not by the index itself: events are gathered tile by

@@ -464,14 +464,14 @@ impl Curve {
     }
 
     /// The time where `L` reaches `level` on the monotone piece from `(s0, l0)` to `(s1, l1)`,
-    /// estimated without an exponential: the cubic Hermite interpolant of the inverse
-    /// function `s(L)`, whose slopes at the ends are `1/L′` with `L′ = ω·(u − L)` (the
-    /// input `u` is known at every time). Its error is of fourth order in the piece's length:
-    /// on the `paper-rate` scene the root finder then needs 1.28 evaluations per crossing
-    /// instead of 1.88 from the linear interpolation. Falls back to the linear
-    /// interpolation where the slopes do not give a monotone interpolant (an end at an
-    /// extremum, where `L′ = 0`), following Fritsch & Carlson (SIAM J. Numer. Anal. 17, 1980):
-    /// both end slopes at most three times the secant's.
+    /// estimated without an exponential: the cubic Hermite interpolant of the inverse function
+    /// `s(L)`, whose slopes at the ends are `1/L′` with `L′ = ω·(u − L)` (the input `u` is known at
+    /// every time). Its error is of fourth order in the piece's length: on a 1280×720 uniform flow
+    /// of 0.00152 particles per pixel (`gen4`) the root finder then needs 1.28 evaluations per
+    /// crossing instead of 1.88 from the linear interpolation. Falls back to the linear
+    /// interpolation where the slopes do not give a monotone interpolant (an end at an extremum,
+    /// where `L′ = 0`), following Fritsch & Carlson (SIAM J. Numer. Anal. 17, 1980): both end
+    /// slopes at most three times the secant's.
     #[inline]
     fn inverse_hermite(&self, level: f64, s0: f64, s1: f64, l0: f64, l1: f64) -> f64 {
         let theta = (level - l0) / (l1 - l0);
