@@ -52,6 +52,9 @@ enum Command {
     Bench(cmd::bench::BenchArgs),
     /// Errors of a vector field against the truth, or agreement of two fields, with a report.
     Assess(Box<cmd::assess::AssessArgs>),
+    /// Monte-Carlo parameter study: simulate, process and measure a setup over swept
+    /// parameters and seeds; tables, plots and a report.
+    Study(cmd::study::StudyArgs),
 }
 
 /// End quietly when the reader of standard output goes away (`ebiv info REC | head -1`), as
@@ -86,6 +89,7 @@ fn main() -> ExitCode {
         Command::Simulate(a) => cmd::simulate::run(a),
         Command::Bench(a) => cmd::bench::run(a),
         Command::Assess(a) => cmd::assess::run(a),
+        Command::Study(a) => cmd::study::run(a),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

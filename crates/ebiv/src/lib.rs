@@ -33,6 +33,7 @@ pub mod settings;
 pub mod sim;
 mod simd;
 pub mod stats;
+pub mod study;
 #[cfg(test)]
 mod test_rng;
 pub mod units;

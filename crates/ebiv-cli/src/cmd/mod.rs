@@ -10,6 +10,7 @@ pub mod info;
 pub mod process;
 pub mod render;
 pub mod simulate;
+pub mod study;
 
 use crate::progress::bytes_bar;
 use ebiv::io::{EventReader, ReadOptions};

@@ -30,8 +30,8 @@ use crate::error::{Error, Result};
 use crate::estimate::Estimator;
 use crate::event::{EventBuffer, Geometry};
 use crate::field::FieldSeries;
-use crate::process::{process_recording, MemorySource, Method, ProcessParams};
-use crate::settings::{EstimatorTask, ProcessSettings, Resolved};
+use crate::process::Method;
+use crate::settings::{spread_field_times, EstimatorTask, ProcessSettings, Resolved};
 use crate::sim::particles::SeedingParams;
 use crate::sim::scenario::{Scenario, SensorSection};
 use crate::sim::FlowSpec;
@@ -350,19 +350,16 @@ impl Prepared {
         }
     }
 
-    /// The fields of `events` (a recording of `duration_us` on `geometry`).
+    /// The fields of `events` (a recording of `duration_us` on `geometry`):
+    /// [`FIELDS_PER_RECORDING`] fields spread evenly between its margins.
     fn process(
         &self,
         events: &EventBuffer,
         geometry: Geometry,
         duration_us: i64,
     ) -> Result<FieldSeries> {
-        self.run.with_event_estimator(Fields {
-            params: &self.run.process,
-            events,
-            geometry,
-            duration_us,
-        })?
+        let times = |extent| field_times(extent, duration_us);
+        Ok(self.run.process_in_memory(events, geometry, &times)?.0)
     }
 }
 
@@ -374,70 +371,15 @@ impl EstimatorTask for Built {
     fn run<E: Estimator>(self, _: &E) {}
 }
 
-/// The fields of one recording ([`process_fields`]).
-struct Fields<'a> {
-    params: &'a ProcessParams,
-    events: &'a EventBuffer,
-    geometry: Geometry,
-    duration_us: i64,
-}
-
-impl EstimatorTask for Fields<'_> {
-    type Output = Result<FieldSeries>;
-    fn run<E: Estimator>(self, estimator: &E) -> Result<FieldSeries> {
-        process_fields(
-            estimator,
-            self.params,
-            self.events,
-            self.geometry,
-            self.duration_us,
-        )
-    }
-}
-
-/// [`FIELDS_PER_RECORDING`] fields of `estimator`, spread evenly over the recording between
-/// its margins.
-fn process_fields<E: Estimator>(
-    estimator: &E,
-    params: &ProcessParams,
-    events: &EventBuffer,
-    geometry: Geometry,
-    duration_us: i64,
-) -> Result<FieldSeries> {
-    let times = field_times(estimator.planning_extent_us(), duration_us)?;
-    let mut source = MemorySource::new(events);
-    let (series, _) = process_recording(
-        &mut source,
-        geometry,
-        estimator,
-        params,
-        &times,
-        &mut |_| Ok(()),
-    )?;
-    Ok(series)
-}
-
 /// Field centre times for fields needing `(before, after)` µs of events, evenly spread over
 /// a recording of `duration_us` less [`MARGIN_US`] at each end.
-fn field_times((before, after): (i64, i64), duration_us: i64) -> Result<Vec<i64>> {
-    let first = MARGIN_US + before;
-    let last = duration_us - MARGIN_US - after;
-    if last < first {
-        return Err(Error::parameter(
-            "slab",
-            format!(
-                "a field spans {} µs, more than the {} µs recording leaves between its margins",
-                before + after,
-                duration_us - 2 * MARGIN_US
-            ),
-        ));
-    }
-    let n = FIELDS_PER_RECORDING as i64;
-    let mut times: Vec<i64> = (0..n)
-        .map(|k| first + (last - first) * k / (n - 1).max(1))
-        .collect();
-    times.dedup();
-    Ok(times)
+fn field_times(extent: (i64, i64), duration_us: i64) -> Result<Vec<i64>> {
+    spread_field_times(
+        extent,
+        MARGIN_US,
+        duration_us - MARGIN_US,
+        FIELDS_PER_RECORDING,
+    )
 }
 
 /// How far the study has got, for progress reports.

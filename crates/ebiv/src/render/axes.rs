@@ -102,18 +102,34 @@ impl Axes {
 
     /// Draw the frame, outward ticks with labels on the left and bottom, and the axis labels.
     pub fn draw(&self, img: &mut RgbImage, x_label: &str, y_label: &str, scale: u32) {
+        let (lo, hi) = order(self.x_range);
+        let target = ((self.area.x1 - self.area.x0) as i64 / 90).clamp(2, 10) as usize;
+        let (ticks, step) = nice_ticks(lo, hi, target);
+        let ticks: Vec<(f64, String)> = ticks
+            .into_iter()
+            .map(|t| (t, format_value(t, step)))
+            .collect();
+        self.draw_with_x_ticks(img, &ticks, x_label, y_label, scale);
+    }
+
+    /// [`Axes::draw`] with the x ticks given as (data x, label): categories, or values on a
+    /// logarithmic axis.
+    pub fn draw_with_x_ticks(
+        &self,
+        img: &mut RgbImage,
+        x_ticks: &[(f64, String)],
+        x_label: &str,
+        y_label: &str,
+        scale: u32,
+    ) {
         let (x0, y0) = (self.area.x0 as i64, self.area.y0 as i64);
         let (x1, y1) = (self.area.x1 as i64, self.area.y1 as i64);
         outline(img, x0 - 1, y0 - 1, x1, y1, INK);
         let th = text_height(scale) as i64;
-        let (lo, hi) = order(self.x_range);
-        let target = ((x1 - x0) / 90).clamp(2, 10) as usize;
-        let (ticks, step) = nice_ticks(lo, hi, target);
-        for t in ticks {
-            let x = self.px(t).floor() as i64;
+        for (t, label) in x_ticks {
+            let x = self.px(*t).floor() as i64;
             fill_rect(img, Rect::new(x as f64, y1 as f64, 1.0, TICK as f64), INK);
-            let label = format_value(t, step);
-            draw_text(img, x, y1 + TICK + GAP, &label, scale, INK, Align::Centre);
+            draw_text(img, x, y1 + TICK + GAP, label, scale, INK, Align::Centre);
         }
         let label_y = y1 + TICK + GAP + th + GAP;
         draw_text(

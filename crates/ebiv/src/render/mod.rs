@@ -10,6 +10,8 @@ mod event_image;
 pub mod font;
 mod frame_image;
 mod histogram;
+mod histogram2d;
+mod line_plot;
 mod palette;
 pub mod plot;
 mod rate_map;
@@ -28,6 +30,8 @@ pub use histogram::{
     histogram, peak_locking_index, peak_locking_noise, valid_components, velocity_histograms,
     Histogram, HistogramStyle,
 };
+pub use histogram2d::{histogram2d_figure, Histogram2d};
+pub use line_plot::{line_plot, LinePlot, Series, SeriesStyle, XAxis, SERIES_COLOURS};
 pub use rate_map::{EventRateMap, RateMapImage};
 pub use vector_map::{auto_stride, vector_map, VectorMapStyle, MAX_ARROWS_ACROSS, MIN_ARROW_GAP};
 

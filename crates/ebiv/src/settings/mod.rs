@@ -10,11 +10,13 @@
 //! settings into the parameters of the estimators and of the multi-pass engine.
 
 mod checks;
+mod memory;
 mod resolve;
 mod table;
 mod value;
 
 pub use crate::process::FieldTimes;
+pub use memory::{spread_field_times, TimesFor};
 pub use resolve::{EstimatorTask, Resolved, Source};
 pub use table::{find, template, Setting};
 pub use value::{Duration, Kind, PixelList, Point, SettingValue, SlabLength, TextList};

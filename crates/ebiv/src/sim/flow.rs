@@ -12,12 +12,14 @@
 //!
 //! * closed-form paths ([`analytic`]): [`Uniform`], [`SolidBodyRotation`], [`RankineVortex`],
 //!   [`LambOseenVortex`], [`Couette`], [`MixingLayer`], [`Poiseuille`], [`StagnationPoint`];
-//! * integrated paths ([`streams`]): [`Sinusoidal`], [`Cellular`], [`Superposition`];
+//! * integrated paths ([`streams`]): [`Sinusoidal`], [`Cellular`], [`Superposition`],
+//!   and the turbulence-like [`RandomVortices`] ([`random`]);
 //! * user data ([`gridded`]): [`GriddedFlow`] from CSV or NetCDF classic files;
 //! * configuration ([`spec`]): [`FlowSpec`], the `[flow]` table of a scenario file.
 
 pub mod analytic;
 pub mod gridded;
+pub mod random;
 pub mod spec;
 pub mod streams;
 #[cfg(test)]
@@ -25,9 +27,10 @@ mod tests;
 
 pub use analytic::{
     Couette, LambOseenVortex, MixingLayer, Poiseuille, RankineVortex, SolidBodyRotation,
-    StagnationPoint, Uniform,
+    StagnationPoint, Uniform, LAMB_OSEEN_PEAK_Q,
 };
 pub use gridded::GriddedFlow;
+pub use random::RandomVortices;
 pub use spec::FlowSpec;
 pub use streams::{Cellular, Sinusoidal, Superposition};
 

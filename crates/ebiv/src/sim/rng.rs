@@ -18,6 +18,8 @@ pub enum Stream {
     Temporal = 3,
     /// Re-seeding of particles that left the field of view.
     Reseeding = 4,
+    /// Random flows ([`crate::sim::flow::RandomVortices`]): vortex positions and signs.
+    Flow = 5,
 }
 
 /// xoshiro256++ generator.

@@ -182,7 +182,7 @@ fn process_cpu_seconds() -> Option<f64> {
 }
 
 /// "1 thread" or "N threads": the size of the worker pool the bench ran on.
-pub(super) fn worker_threads() -> String {
+pub(crate) fn worker_threads() -> String {
     match rayon::current_num_threads() {
         1 => "1 thread".to_string(),
         n => format!("{n} threads"),

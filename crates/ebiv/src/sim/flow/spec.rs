@@ -13,8 +13,8 @@
 //! turn clockwise on screen (y points down). Formulas: sensor-model.md §5.
 
 use super::{
-    Cellular, Couette, Flow, GriddedFlow, LambOseenVortex, MixingLayer, Poiseuille, RankineVortex,
-    Sinusoidal, SolidBodyRotation, StagnationPoint, Superposition, Uniform,
+    Cellular, Couette, Flow, GriddedFlow, LambOseenVortex, MixingLayer, Poiseuille, RandomVortices,
+    RankineVortex, Sinusoidal, SolidBodyRotation, StagnationPoint, Superposition, Uniform,
 };
 use crate::error::{Error, Result};
 use serde::{Deserialize, Serialize};
@@ -129,6 +129,25 @@ pub enum FlowSpec {
         /// Strain rate k, 1/ms.
         k: f64,
     },
+    /// A turbulence-like steady field: `count` Lamb–Oseen vortices of random position and
+    /// sense over a uniform stream ([`RandomVortices`]).
+    RandomVortices {
+        /// Number of vortices.
+        count: u32,
+        /// Core radius r_c of every vortex, px.
+        core_radius: f64,
+        /// Peak tangential speed of every vortex (at 1.1209 r_c), px/ms.
+        speed: f64,
+        /// Region [width, height] px over which the centres are spread (from the origin).
+        region: [f64; 2],
+        /// Uniform stream [u, v] the vortices sit in, px/ms (default [0, 0]).
+        #[serde(default)]
+        mean: [f64; 2],
+        /// Seed of the vortex positions and senses (default 1), independent of the
+        /// scenario's seed so that every particle seed sees the same flow.
+        #[serde(default = "default_flow_seed")]
+        seed: u64,
+    },
     /// The sum of several flows ([`Superposition`]).
     Superposition {
         /// The flows to add, each a table with its own `type`.
@@ -139,6 +158,10 @@ pub enum FlowSpec {
         /// The file; relative paths are taken as given (see [`FlowSpec::with_base_dir`]).
         path: PathBuf,
     },
+}
+
+fn default_flow_seed() -> u64 {
+    1
 }
 
 /// Checks the parameters of one spec, naming keys with a prefix (`flows[1].`).
@@ -333,6 +356,31 @@ impl FlowSpec {
                 centre: c.point("centre", centre)?,
                 k_per_ms: c.finite("k", k)?,
             }),
+            FlowSpec::RandomVortices {
+                count,
+                core_radius,
+                speed,
+                region,
+                mean,
+                seed,
+            } => {
+                if count == 0 || count > 10_000 {
+                    return Err(Error::parameter(
+                        c.key("count"),
+                        format!("must be 1 to 10000 vortices, not {count}"),
+                    ));
+                }
+                let region = c.point("region", region)?;
+                c.positive("region", region.0.min(region.1))?;
+                Box::new(RandomVortices::new(
+                    count,
+                    c.positive("core_radius", core_radius)?,
+                    c.finite("speed", speed)?,
+                    region,
+                    c.point("mean", mean)?,
+                    seed,
+                ))
+            }
             FlowSpec::Superposition { ref flows } => {
                 if flows.is_empty() {
                     return Err(Error::parameter(

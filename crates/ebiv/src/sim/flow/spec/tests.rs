@@ -304,3 +304,32 @@ fn gridded_spec_names_the_missing_file_and_resolves_relative_paths() {
         ]
     );
 }
+
+#[test]
+fn random_vortices_are_read_from_toml_and_checked() {
+    let text = "type = \"random_vortices\"\ncount = 8\ncore_radius = 16.0\nspeed = 1.5\n\
+                region = [128.0, 96.0]\nmean = [1.0, 0.0]\n";
+    let spec: FlowSpec = toml::from_str(text).unwrap();
+    let flow = spec.build().unwrap();
+    assert!(flow.max_speed(128.0, 96.0, 0.0) > 1.0);
+    let far = flow.velocity(1e7, 1e7, 0.0);
+    assert!((far.0 - 1.0).abs() < 1e-6, "{far:?}");
+    let none = FlowSpec::RandomVortices {
+        count: 0,
+        core_radius: 16.0,
+        speed: 1.5,
+        region: [128.0, 96.0],
+        mean: [0.0, 0.0],
+        seed: 1,
+    };
+    assert_eq!(parameter_name(none), "count");
+    let flat = FlowSpec::RandomVortices {
+        count: 3,
+        core_radius: 16.0,
+        speed: 1.5,
+        region: [128.0, 0.0],
+        mean: [0.0, 0.0],
+        seed: 1,
+    };
+    assert_eq!(parameter_name(flat), "region");
+}
