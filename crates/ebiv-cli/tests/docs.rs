@@ -8,7 +8,7 @@ use std::path::PathBuf;
 
 /// Where commands are described: the commands, the page, and the heading that opens their
 /// section (the section runs to the next heading of the same level), or the whole page.
-const PAGES: [(&[&str], &str, Option<&str>); 9] = [
+const PAGES: [(&[&str], &str, Option<&str>); 10] = [
     (&["info"], "commands.md", Some("## `ebiv info")),
     (&["convert"], "commands.md", Some("## `ebiv convert")),
     (&["render"], "commands.md", Some("## `ebiv render")),
@@ -17,6 +17,7 @@ const PAGES: [(&[&str], &str, Option<&str>); 9] = [
     (&["init"], "commands.md", Some("## `ebiv init")),
     (&["process"], "process.md", None),
     (&["simulate"], "simulate.md", None),
+    (&["study"], "study.md", None),
     (
         &[
             "bench decode",

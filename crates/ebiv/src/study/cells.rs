@@ -268,10 +268,10 @@ mod tests {
     use super::*;
 
     fn spec(extra: &str) -> StudySpec {
-        let text = format!(
+        let base =
             "seeds = 2\nmethods = [\"corrsum\", \"motion\"]\n[scenario]\nexample = \"uniform\"\n\
-             sensor = {{ width = 96, height = 96, preset = \"ideal\" }}\n{extra}"
-        );
+             sensor = { width = 96, height = 96, preset = \"ideal\" }\n";
+        let text = super::super::spec::around(base, extra);
         StudySpec::from_toml(&text, "t", Path::new(".")).unwrap()
     }
 

@@ -204,7 +204,15 @@ fn estimate_text(e: Estimate) -> String {
 
 fn table(md: &mut String, input: &ReportInput) {
     let spec = input.spec;
-    let mut metrics: Vec<&str> = TABLE.to_vec();
+    // The peak-locking index means something only for a spread of displacements (a
+    // uniform flow's are all alike): shown where the study asks for it.
+    let locking = spec.metrics.iter().any(|m| m == "peak_locking")
+        || spec.figures.iter().any(|f| f == "uv-histogram");
+    let mut metrics: Vec<&str> = TABLE
+        .iter()
+        .copied()
+        .filter(|m| *m != "peak_locking" || locking)
+        .collect();
     if rotation(spec).is_some() {
         metrics.extend(["omega_fit", "fit_rms", "fit_dvr"]);
     }

@@ -16,6 +16,10 @@
 //! [process]                              # `ebiv process` configuration keys
 //! window = [64, 32]
 //!
+//! [variants.motion-grid]                 # a named method with settings of its own
+//! method = "motion"
+//! motion-search = "grid"
+//!
 //! [sweep]                                # one axis per key; cells are every combination
 //! "scenario.particles.density" = [0.002, 0.01, 0.05]
 //! "process.slab" = ["5ms", "10ms"]
@@ -102,6 +106,8 @@ struct StudyFile {
     #[serde(default)]
     process: Table,
     #[serde(default)]
+    variants: Table,
+    #[serde(default)]
     sweep: Table,
     #[serde(default)]
     figures: Option<Vec<String>>,
@@ -143,8 +149,12 @@ pub struct StudySpec {
     pub description: String,
     /// Scenario seeds: every combination is simulated once per seed.
     pub seeds: Vec<u64>,
-    /// Methods, as `ebiv process --method` takes them.
+    /// Methods, as `ebiv process --method` takes them, or names of [`StudySpec::variants`].
     pub methods: Vec<String>,
+    /// Named methods with settings of their own: name → a table of `method` and `ebiv
+    /// process` keys applied over `[process]` (the paper's grid search of motion
+    /// compensation beside ebiv's default, say).
+    pub variants: Table,
     /// Fields evaluated per recording, spread evenly between the margins.
     pub fields: usize,
     /// Time left out at each end of a recording, µs.
@@ -201,11 +211,32 @@ impl StudySpec {
         if methods.is_empty() {
             return Err(bad("methods", "give at least one method"));
         }
+        for (name, variant) in &file.variants {
+            let key = format!("variants.{name}");
+            let table = variant
+                .as_table()
+                .ok_or_else(|| bad(&key, "give a table: method = \"motion\" and settings"))?;
+            if Method::parse(name).is_some() {
+                return Err(bad(&key, "a variant needs a name other than a method's"));
+            }
+            match table.get("method") {
+                Some(Value::String(m)) if Method::parse(m).is_some() => {}
+                _ => {
+                    return Err(bad(
+                        format!("{key}.method"),
+                        "name a method: corrsum, motion, piv or pulsed",
+                    ))
+                }
+            }
+            for k in table.keys().filter(|k| *k != "method") {
+                check_process_key(k, &format!("{key}.{k}"))?;
+            }
+        }
         for (i, m) in methods.iter().enumerate() {
-            if Method::parse(m).is_none() {
+            if Method::parse(m).is_none() && !file.variants.contains_key(m) {
                 return Err(bad(
                     "methods",
-                    format!("`{m}` is not a method; use corrsum, motion, piv or pulsed"),
+                    format!("`{m}` is not a method or variant; use corrsum, motion, piv, pulsed or a name of [variants]"),
                 ));
             }
             if methods[..i].contains(m) {
@@ -308,6 +339,7 @@ impl StudySpec {
             description: file.description.unwrap_or_default(),
             seeds,
             methods,
+            variants: file.variants,
             fields,
             margin_us,
             scenario,
@@ -372,13 +404,23 @@ impl StudySpec {
         };
         s.apply_table(&self.process)
             .map_err(|e| in_context(e, "[process]"))?;
+        let name = method;
+        let mut method = name.to_string();
+        if let Some(Value::Table(variant)) = self.variants.get(name) {
+            let mut own = variant.clone();
+            if let Some(Value::String(m)) = own.remove("method") {
+                method = m;
+            }
+            s.apply_table(&own)
+                .map_err(|e| in_context(e, &format!("[variants.{name}]")))?;
+        }
         for (axis, value) in self.axes.iter().zip(values) {
             if let Target::Process(key) = &axis.target {
                 s.set(key, value)
                     .map_err(|e| in_context(e, &format!("sweep `{}` = {value}", axis.key)))?;
             }
         }
-        s.set("method", &Value::String(method.into()))?;
+        s.set("method", &Value::String(method))?;
         Ok(s)
     }
 
@@ -554,6 +596,21 @@ fn line_of(text: &str, offset: usize) -> u64 {
         + 1
 }
 
+/// `extra`'s top-level keys before `base`, its tables after it.
+#[cfg(test)]
+pub(crate) fn around(base: &str, extra: &str) -> String {
+    let at = extra
+        .lines()
+        .position(|l| l.starts_with('['))
+        .unwrap_or(extra.lines().count());
+    let lines: Vec<&str> = extra.lines().collect();
+    format!(
+        "{}\n{base}\n{}\n",
+        lines[..at].join("\n"),
+        lines[at..].join("\n")
+    )
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -563,7 +620,7 @@ mod tests {
         sensor = { width = 96, height = 96, preset = \"ideal\" }\n";
 
     fn parse(extra: &str) -> Result<StudySpec> {
-        StudySpec::from_toml(&format!("{BASE}{extra}"), "t.toml", Path::new("."))
+        StudySpec::from_toml(&around(BASE, extra), "t.toml", Path::new("."))
     }
 
     fn error(extra: &str) -> String {
@@ -586,7 +643,7 @@ mod tests {
         );
         let values = s.combination(5);
         assert_eq!(values[0], &Value::String("5ms".into()));
-        assert_eq!(values[1], &Value::Float(2.0));
+        assert_eq!(values[1], &Value::Integer(2));
         assert_eq!(values[2], &Value::Float(50.0));
         let scenario = s.scenario(&values, 7).unwrap();
         assert_eq!((scenario.seed, scenario.duration), (7, 40_000));
@@ -654,6 +711,31 @@ mod tests {
             e.contains("tornado") && e.contains("scenario.example"),
             "{e}"
         );
+    }
+
+    #[test]
+    fn a_variant_is_a_method_with_its_own_settings() {
+        let s = StudySpec::from_toml(
+            &BASE.replace("[\"corrsum\"]", "[\"motion\", \"motion-grid\"]")
+                .replace("[scenario]", "[variants.motion-grid]\nmethod = \"motion\"\nmotion-search = \"grid\"\n[scenario]"),
+            "t",
+            Path::new("."),
+        )
+        .unwrap();
+        let grid = s.settings(&[], "motion-grid").unwrap();
+        assert_eq!(grid.method, Method::Motion);
+        assert_ne!(grid, s.settings(&[], "motion").unwrap());
+        let e = StudySpec::from_toml(
+            &BASE.replace(
+                "[scenario]",
+                "[variants.fast]\nmethod = \"motion\"\nspeed = 1\n[scenario]",
+            ),
+            "t",
+            Path::new("."),
+        )
+        .unwrap_err()
+        .to_string();
+        assert!(e.contains("variants.fast.speed"), "{e}");
     }
 
     #[test]

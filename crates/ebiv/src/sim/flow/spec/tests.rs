@@ -313,7 +313,7 @@ fn random_vortices_are_read_from_toml_and_checked() {
     let flow = spec.build().unwrap();
     assert!(flow.max_speed(128.0, 96.0, 0.0) > 1.0);
     let far = flow.velocity(1e7, 1e7, 0.0);
-    assert!((far.0 - 1.0).abs() < 1e-6, "{far:?}");
+    assert!((far.0 - 1.0).abs() < 1e-4 && far.1.abs() < 1e-4, "{far:?}");
     let none = FlowSpec::RandomVortices {
         count: 0,
         core_radius: 16.0,
