@@ -390,7 +390,7 @@ impl Scenario {
 }
 
 /// The 1-based line holding byte `offset` of `text` (the last line for an offset past the end).
-fn line_of(text: &str, offset: usize) -> u64 {
+pub(crate) fn line_of(text: &str, offset: usize) -> u64 {
     let before = &text.as_bytes()[..offset.min(text.len())];
     before.iter().filter(|&&b| b == b'\n').count() as u64 + 1
 }

@@ -35,7 +35,7 @@
 use crate::error::{Error, Result};
 use crate::process::Method;
 use crate::settings::ProcessSettings;
-use crate::sim::scenario::Scenario;
+use crate::sim::scenario::{line_of, Scenario};
 use std::collections::BTreeMap;
 use std::path::Path;
 use toml::{Table, Value};
@@ -585,15 +585,6 @@ fn set_path(table: &mut Table, path: &[String], value: Value) {
         t = entry.as_table_mut().expect("a table");
     }
     t.insert(last.clone(), value);
-}
-
-/// The 1-based line holding byte `offset` of `text`.
-fn line_of(text: &str, offset: usize) -> u64 {
-    text.as_bytes()[..offset.min(text.len())]
-        .iter()
-        .filter(|&&b| b == b'\n')
-        .count() as u64
-        + 1
 }
 
 /// `extra`'s top-level keys before `base`, its tables after it.

@@ -314,22 +314,15 @@ fn random_vortices_are_read_from_toml_and_checked() {
     assert!(flow.max_speed(128.0, 96.0, 0.0) > 1.0);
     let far = flow.velocity(1e7, 1e7, 0.0);
     assert!((far.0 - 1.0).abs() < 1e-4 && far.1.abs() < 1e-4, "{far:?}");
-    let none = FlowSpec::RandomVortices {
-        count: 0,
+    let vortices = |count, region| FlowSpec::RandomVortices {
+        count,
         core_radius: 16.0,
         speed: 1.5,
-        region: [128.0, 96.0],
+        region,
         mean: [0.0, 0.0],
         seed: 1,
     };
-    assert_eq!(parameter_name(none), "count");
-    let flat = FlowSpec::RandomVortices {
-        count: 3,
-        core_radius: 16.0,
-        speed: 1.5,
-        region: [128.0, 0.0],
-        mean: [0.0, 0.0],
-        seed: 1,
-    };
+    assert_eq!(parameter_name(vortices(0, [128.0, 96.0])), "count");
+    let flat = vortices(3, [128.0, 0.0]);
     assert_eq!(parameter_name(flat), "region");
 }
