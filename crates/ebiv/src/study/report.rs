@@ -343,9 +343,12 @@ fn metric_plots(input: &ReportInput, plots: &Path) -> Result<Vec<(String, String
     Ok(figures)
 }
 
+/// Where a group sits on a plot's x axis.
+type Position<'a> = Box<dyn Fn(&Group) -> f64 + 'a>;
+
 fn metric_plot(input: &ReportInput, metric: &str, x: Option<usize>) -> LinePlot {
     let spec = input.spec;
-    let (x_axis, x_label, position): (XAxis, String, Box<dyn Fn(&Group) -> f64>) = match x {
+    let (x_axis, x_label, position): (XAxis, String, Position) = match x {
         None => (
             XAxis::Categories(spec.methods.clone()),
             "method".into(),

@@ -532,10 +532,11 @@ fn base_scenario(mut table: Table, base_dir: &Path) -> Result<Table> {
         (Some(_), Some(_)) => {
             return Err(bad("scenario", "give either `example` or `file`, not both"))
         }
-        (Some(Value::String(name)), None) => {
-            Some(Scenario::example_text(&name).map_err(|e| in_context(e, "scenario.example"))?)
-                .map(str::to_string)
-        }
+        (Some(Value::String(name)), None) => Some(
+            Scenario::example_text(&name)
+                .map_err(|e| in_context(e, "scenario.example"))?
+                .to_string(),
+        ),
         (None, Some(Value::String(path))) => {
             let path = base_dir.join(path);
             Some(std::fs::read_to_string(&path).map_err(|e| Error::io(&path, e))?)
