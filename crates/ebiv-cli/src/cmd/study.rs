@@ -80,12 +80,13 @@ pub fn run(args: &StudyArgs) -> Result<(), ebiv::Error> {
         &|| stop_check(&out),
     );
     bar.finish_and_clear();
-    let outcome = outcome.map_err(|e| {
-        if crate::interrupt::check(&out).is_err() {
-            eprintln!("stopped; the finished cells are stored in {}: run the same command again to continue", out.display());
-        }
-        e
-    })?;
+    if outcome.is_err() && crate::interrupt::check(&out).is_err() {
+        eprintln!(
+            "stopped; the finished cells are stored in {}: run the same command again to continue",
+            out.display()
+        );
+    }
+    let outcome = outcome?;
     eprintln!(
         "{} cells computed, {} found finished, in {:.0} s on {}",
         outcome.computed,
