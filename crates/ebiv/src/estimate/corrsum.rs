@@ -26,6 +26,7 @@
 mod direct;
 mod fit;
 mod fourier;
+mod uncertainty;
 mod voxels;
 
 use serde::{Deserialize, Serialize};
@@ -361,6 +362,7 @@ impl SumOfCorrelation {
         let p = &self.params;
         let deformation = predictor.and_then(|p| p.deformation);
         let shared = self.voxelise(slab, window, t0_us, (offsets, shift), deformation, scratch);
+        scratch.shared = shared;
         let (a, b) = sub_volumes(&scratch.voxels, shared, p.slices as usize);
         let (n1, n2) = (a.events(), b.events());
         let events = u32::try_from((n1 + n2) / 2).unwrap_or(u32::MAX);
@@ -623,6 +625,23 @@ impl SumOfCorrelation {
             Some(rests) => rests,
             None => false,
         }
+    }
+
+    /// Standard uncertainty, px per axis, of the sub-pixel position of `peak` on the plane
+    /// that [`SumOfCorrelation::correlation_plane`] left in `scratch`, from the sub-volumes
+    /// it was computed from ([`uncertainty::peak_sigma`]).
+    fn peak_uncertainty(&self, peak: &crate::peak::Peak, scratch: &mut CorrSumScratch) -> [f64; 2] {
+        let (a, b) = sub_volumes(&scratch.voxels, scratch.shared, self.params.slices as usize);
+        uncertainty::peak_sigma(
+            (a, b),
+            &scratch.stats,
+            scratch.shape,
+            &scratch.plane,
+            peak,
+            (&self.smoothing, self.params.fit),
+            &mut scratch.image,
+            &mut scratch.blocks,
+        )
     }
 
     /// Bin the window's events of one sub-volume from `start`, neither shifted nor deformed,
@@ -926,6 +945,11 @@ impl Estimator for SumOfCorrelation {
         result.u = dx / tau_ms;
         result.v = dy / tau_ms;
         result.status = Status::VALID;
+        // The uncertainty from the sub-volumes the plane was computed from, before the
+        // evidence tests bin other ones.
+        let [su, sv] = self.peak_uncertainty(&peak, scratch);
+        result.u_unc = (su / tau_ms) as f32;
+        result.v_unc = (sv / tau_ms) as f32;
         let predicted = predictor.is_some();
         if let Some(status) = self.own_evidence(slab, window, t0_us, [dx, dy], predicted, scratch) {
             result.status = status;
@@ -989,6 +1013,8 @@ pub struct CorrSumScratch {
     /// S1 and S2, or (shared) both in the first; the third for S2 after half the delay
     /// ([`SumOfCorrelation::own_evidence`]).
     voxels: [Voxels; 3],
+    /// How S1 and S2 of the last plane lie in `voxels` ([`sub_volumes`]).
+    shared: Option<usize>,
     stats: Vec<SliceStats>,
     /// A zeroed grid of the window for [`direct::correlations_at`].
     image: Vec<f64>,
@@ -999,6 +1025,8 @@ pub struct CorrSumScratch {
     split: bool,
     accumulators: direct::Accumulators,
     fourier: Option<Fourier>,
+    /// Working memory of the peak's uncertainty.
+    blocks: uncertainty::BlockPlanes,
 }
 
 impl CorrSumScratch {
@@ -1017,6 +1045,7 @@ impl CorrSumScratch {
             events: WindowEvents::default(),
             voxeliser: Voxeliser::new(shape.w, shape.h),
             voxels: Default::default(),
+            shared: None,
             stats: Vec::with_capacity(slices as usize),
             image: vec![0.0; shape.w * shape.h],
             plane: vec![0.0; shape.plane_width() * shape.plane_height()],
@@ -1024,6 +1053,7 @@ impl CorrSumScratch {
             split: false,
             accumulators: direct::Accumulators::new(shape),
             fourier: None,
+            blocks: Default::default(),
         }
     }
 

@@ -9,6 +9,7 @@
 pub mod adaptive;
 pub mod corrsum;
 pub mod motion;
+pub mod uncertainty;
 pub use crate::peak;
 
 use crate::field::Status;

@@ -40,6 +40,7 @@ mod newton;
 mod search;
 #[cfg(test)]
 mod test_events;
+mod uncertainty;
 mod votes;
 
 use serde::{Deserialize, Serialize};
@@ -531,6 +532,11 @@ impl Estimator for ContrastMaximization {
             status = Status::FEW_EVENTS;
         }
         let valid = status.is_valid();
+        let [u_unc, v_unc] = if valid {
+            search.uncertainty(out.velocity, &mut scratch.search)
+        } else {
+            [f64::NAN; 2]
+        };
         WindowEstimate {
             u: if valid { out.velocity[0] } else { f64::NAN },
             v: if valid { out.velocity[1] } else { f64::NAN },
@@ -541,6 +547,8 @@ impl Estimator for ContrastMaximization {
             peak_ratio: out.peak_ratio as f32,
             event_count: count,
             slab_us,
+            u_unc: u_unc as f32,
+            v_unc: v_unc as f32,
         }
     }
 

@@ -166,6 +166,21 @@ pub(super) fn refine_with_kernel(
     [c0 as f64 - 1.0 + x, r0 as f64 - 1.0 + y]
 }
 
+/// Half-width of the neighbourhood of the integer maximum `peak` of a `width × height`
+/// plane whose values [`refine_with_kernel`] reads: the smoothed candidates at ±1 with their
+/// 3 × 3 blocks and the kernel's reach, or the 3 × 3 neighbourhood where it does not smooth.
+pub(super) fn fit_reach(kernel: &SmoothingKernel, [width, height]: [usize; 2], peak: &Peak) -> usize {
+    let (w, h) = (width as isize, height as isize);
+    let (r0, c0) = (peak.row as isize, peak.col as isize);
+    let sigma = kernel.sigma;
+    let room = r0.min(c0).min(h - 1 - r0).min(w - 1 - c0);
+    if sigma.is_nan() || sigma < MIN_SIGMA || peak.on_edge || room < reach(sigma) + BLOCK {
+        1
+    } else {
+        (reach(sigma) + BLOCK) as usize
+    }
+}
+
 /// How far from the plane's maximum smoothed values are used: candidates at ±1 and their
 /// 3 × 3 neighbourhoods.
 const BLOCK: isize = 2;

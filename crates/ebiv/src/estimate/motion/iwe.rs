@@ -214,6 +214,12 @@ pub(crate) struct Workspace {
     jv: Vec<f32>,
     /// Quantised sub-pixel positions `qx | qy << 16` of the last derivative scatter.
     quant: Vec<u32>,
+    /// Whether [`derivatives`] records each event's share of the gradient in
+    /// `event_gradients` (for the uncertainty, [`super::uncertainty`]).
+    pub record_gradients: bool,
+    /// Each event's share `−2 t Σ_p I ∂w/∂x` of the gradient of Σ I² (in event order), from
+    /// the last [`derivatives`] with `record_gradients`; they add up to the gradient.
+    pub event_gradients: Vec<[f64; 2]>,
     prepared: Option<(Canvas, f32)>,
     cx: Vec<f32>,
     cy: Vec<f32>,
@@ -590,8 +596,11 @@ unsafe fn derivatives_of<const K: usize, const P: usize, const WIDE: bool>(
     }
     // 2. Read I back under each footprint: gradient and the I ∂²I term of the Hessian.
     let (mut g, mut h) = ([0f64; 2], [0f64; 3]);
+    let record = work.record_gradients;
+    work.event_gradients.clear();
     {
         let grid = &work.canvas[..cells];
+        let event_gradients = &mut work.event_gradients;
         let events = work.ct.iter().zip(&work.footprint).zip(&work.quant);
         for ((&t, &origin), &quant) in events {
             let (qx, qy) = ((quant & 0xffff) as usize, (quant >> 16) as usize);
@@ -614,6 +623,9 @@ unsafe fn derivatives_of<const K: usize, const P: usize, const WIDE: bool>(
             let (t, t2) = (t as f64, (t * t) as f64);
             g[0] -= t * gu as f64;
             g[1] -= t * gv as f64;
+            if record {
+                event_gradients.push([-2.0 * t * gu as f64, -2.0 * t * gv as f64]);
+            }
             h[0] += t2 * huu as f64;
             h[1] += t2 * huv as f64;
             h[2] += t2 * hvv as f64;

@@ -123,6 +123,8 @@ pub(crate) struct SearchScratch {
     cache: Vec<(i64, i64, f64)>,
     map: Vec<f64>,
     votes: VoteScratch,
+    /// Gradients of the blocks of warped events ([`super::uncertainty`]).
+    gradients: Vec<[f64; 2]>,
 }
 
 /// The search of one window.
@@ -324,6 +326,29 @@ impl Search<'_> {
             peak: best.2,
             peak_ratio,
         })
+    }
+
+    /// Standard uncertainty, px/ms per component, of `velocity`, the maximum the search
+    /// found ([`super::uncertainty::velocity_sigma`]); NaN where the search is not the
+    /// Newton search of Σ I² (the grid search's other objectives have no derivatives).
+    pub fn uncertainty(&self, velocity: [f64; 2], s: &mut SearchScratch) -> [f64; 2] {
+        if !self.newton_applies() || velocity.iter().any(|v| !v.is_finite()) {
+            return [f64::NAN; 2];
+        }
+        let t_max = self.events.t.iter().fold(0f32, |m, t| m.max(t.abs())) as f64;
+        let shift = velocity.map(|v| (v.abs() + 1.0) * t_max);
+        let canvas = Canvas::covering(self.extent, shift, 1.0, self.fine);
+        if canvas.width.max(canvas.height) > 16_384 {
+            return [f64::NAN; 2];
+        }
+        super::uncertainty::velocity_sigma(
+            self.events,
+            velocity,
+            &canvas,
+            self.fine,
+            &mut s.work,
+            &mut s.gradients,
+        )
     }
 
     /// Whether [`SearchMethod::Newton`] is configured and the objective has the derivatives
