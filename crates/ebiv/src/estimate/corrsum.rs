@@ -955,6 +955,8 @@ impl Estimator for SumOfCorrelation {
             result.status = status;
             result.u = f64::NAN;
             result.v = f64::NAN;
+            result.u_unc = f32::NAN;
+            result.v_unc = f32::NAN;
         }
         result
     }

@@ -540,8 +540,6 @@ impl Estimator for ContrastMaximization {
         WindowEstimate {
             u: if valid { out.velocity[0] } else { f64::NAN },
             v: if valid { out.velocity[1] } else { f64::NAN },
-            u_unc: f32::NAN,
-            v_unc: f32::NAN,
             status,
             peak: out.peak as f32,
             peak_ratio: out.peak_ratio as f32,

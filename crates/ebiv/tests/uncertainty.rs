@@ -1,0 +1,178 @@
+//! Coverage of the per-vector standard uncertainty (`u_unc`, `v_unc`) against simulator
+//! ground truth: the share of true errors within ±1σ and ±2σ, and the rank correlation
+//! between |error| and σ, per estimator, pooled over uniform flows, seeding densities,
+//! windows and seeds. Single pass, no predictor, the estimators' default settings.
+//!
+//! `coverage_sweep` (ignored: minutes in release) prints the table of `docs/uncertainty.md`:
+//! `cargo test --release -p ebiv --test uncertainty -- --ignored --nocapture`.
+
+use ebiv::estimate::corrsum::{CorrSumParams, SumOfCorrelation};
+use ebiv::estimate::motion::{ContrastMaximization, MotionParams};
+use ebiv::estimate::Estimator;
+use ebiv::grid::{Grid, GridSpec};
+use ebiv::volume::Slab;
+use ebiv::PolaritySelection;
+
+/// Pooled (error, σ) pairs of one estimator, both components, and the count of valid
+/// components without a σ.
+#[derive(Default)]
+struct Pairs(Vec<(f64, f64)>, usize);
+
+impl Pairs {
+    fn coverage(&self, k: f64) -> f64 {
+        let inside = self.0.iter().filter(|(e, s)| e.abs() <= k * s).count();
+        inside as f64 / self.0.len().max(1) as f64
+    }
+
+    /// Spearman's rank correlation of |error| and σ (average ranks for ties).
+    fn rank_correlation(&self) -> f64 {
+        let ranks = |values: Vec<f64>| {
+            let mut order: Vec<usize> = (0..values.len()).collect();
+            order.sort_by(|&a, &b| values[a].total_cmp(&values[b]));
+            let mut r = vec![0.0; values.len()];
+            let mut i = 0;
+            while i < order.len() {
+                let mut j = i;
+                while j + 1 < order.len() && values[order[j + 1]] == values[order[i]] {
+                    j += 1;
+                }
+                for &k in &order[i..=j] {
+                    r[k] = (i + j) as f64 / 2.0;
+                }
+                i = j + 1;
+            }
+            r
+        };
+        let a = ranks(self.0.iter().map(|p| p.0.abs()).collect());
+        let b = ranks(self.0.iter().map(|p| p.1).collect());
+        let n = a.len() as f64;
+        let (ma, mb) = (a.iter().sum::<f64>() / n, b.iter().sum::<f64>() / n);
+        let cov: f64 = a.iter().zip(&b).map(|(x, y)| (x - ma) * (y - mb)).sum();
+        let va: f64 = a.iter().map(|x| (x - ma).powi(2)).sum();
+        let vb: f64 = b.iter().map(|y| (y - mb).powi(2)).sum();
+        cov / (va * vb).sqrt()
+    }
+
+    fn describe(&self, name: &str) -> String {
+        format!(
+            "{name}: {} components ({} more without σ), within ±1σ {:.1} %, within ±2σ {:.1} %, rank correlation |e|–σ {:.2}",
+            self.0.len(),
+            self.1,
+            100.0 * self.coverage(1.0),
+            100.0 * self.coverage(2.0),
+            self.rank_correlation()
+        )
+    }
+}
+
+/// Simulate a `size`² gen4 scene of a uniform flow and add the (error, σ) of every valid
+/// vector of a single-pass field at 15 ms to `pairs`.
+fn measure<E: Estimator>(
+    est: &E,
+    (u, v): (f64, f64),
+    density: f64,
+    (size, window): (u32, u32),
+    seed: u64,
+    pairs: &mut Pairs,
+) {
+    let text = format!(
+        "seed = {seed}\nduration = \"30ms\"\n[sensor]\nwidth = {size}\nheight = {size}\n\
+         preset = \"gen4\"\n[flow]\ntype = \"uniform\"\nu = {u}\nv = {v}\n[particles]\n\
+         density = {density}\ndiameter = 2.5\nbrightness = 20.0\n"
+    );
+    let scenario: ebiv::sim::scenario::Scenario = toml::from_str(&text).unwrap();
+    let sim = scenario.simulation().unwrap();
+    let events = sim.run(None, &|_| {}).unwrap().events;
+    let t0 = 15_000;
+    let (before, after) = est.time_extent_us();
+    let mut columns = (Vec::new(), Vec::new(), Vec::new(), Vec::new());
+    for e in events.iter() {
+        columns.0.push(e.t);
+        columns.1.push(e.x);
+        columns.2.push(e.y);
+        columns.3.push(e.p);
+    }
+    let (t, x, y, p) = columns;
+    let slab = Slab::build(
+        &t,
+        &x,
+        &y,
+        &p,
+        sim.geometry,
+        t0 - before,
+        t0 + after,
+        PolaritySelection::Positive,
+        16,
+    );
+    let grid = Grid::new(&GridSpec::square(window, window), sim.geometry).unwrap();
+    let mut scratch = est.scratch([window, window]);
+    for i in 0..grid.len() {
+        let w = grid.window(i);
+        let e = est.estimate(&slab, &w, t0, None, &mut scratch);
+        if !e.status.is_valid() {
+            assert!(e.u_unc.is_nan() && e.v_unc.is_nan(), "invalid vector with σ");
+            continue;
+        }
+        let [cx, cy] = w.centre();
+        let truth = sim.flow.velocity(cx, cy, t0 as f64);
+        for (error, sigma) in [(e.u - truth.0, e.u_unc), (e.v - truth.1, e.v_unc)] {
+            if sigma.is_finite() && sigma >= 0.0 {
+                pairs.0.push((error, f64::from(sigma)));
+            } else {
+                pairs.1 += 1;
+            }
+        }
+    }
+}
+
+fn estimators() -> (SumOfCorrelation, ContrastMaximization) {
+    (
+        SumOfCorrelation::new(CorrSumParams::default()).unwrap(),
+        ContrastMaximization::new(MotionParams::default()).unwrap(),
+    )
+}
+
+/// A small sweep (two flows, two densities, one seed): at most 2 % of the valid vectors
+/// lack a σ, invalid ones carry none; σ follows the error (positive rank correlation); sum of
+/// correlation's σ covers at least the nominal shares (it is conservative), motion
+/// compensation's at least 80 % at ±2σ (measured shares printed; the targets 68 %/95 % are
+/// not met by motion compensation, see `docs/uncertainty.md`).
+#[test]
+fn uncertainty_covers_the_true_errors_of_uniform_flows() {
+    let (corrsum, motion) = estimators();
+    let (mut c, mut m) = (Pairs::default(), Pairs::default());
+    for flow in [(1.5, 0.2), (2.1666667, 0.8333333)] {
+        for density in [0.003, 0.01] {
+            measure(&corrsum, flow, density, (128, 32), 1, &mut c);
+            measure(&motion, flow, density, (128, 32), 1, &mut m);
+        }
+    }
+    println!("{}", c.describe("corrsum"));
+    println!("{}", m.describe("motion"));
+    assert!(c.0.len() > 100 && m.0.len() > 100);
+    assert!(c.1 * 50 <= c.0.len() && m.1 * 50 <= m.0.len(), "σ missing on over 2 %");
+    assert!(c.coverage(1.0) >= 0.68 && c.coverage(2.0) >= 0.95);
+    assert!(m.coverage(2.0) >= 0.8);
+    assert!(c.rank_correlation() > 0.1 && m.rank_correlation() > 0.1);
+}
+
+/// The coverage table of `docs/uncertainty.md`: four uniform flows (0.7–4.1 px/ms), three
+/// densities (0.002–0.015 particles/px), 32 and 48 px windows, two seeds, 256 × 256 px.
+#[test]
+#[ignore = "validation sweep, minutes: run with --release -- --ignored --nocapture"]
+fn coverage_sweep() {
+    let (corrsum, motion) = estimators();
+    let (mut c, mut m) = (Pairs::default(), Pairs::default());
+    for flow in [(1.5, 0.2), (2.1666667, 0.8333333), (0.6, -0.3), (4.0, 1.0)] {
+        for density in [0.002, 0.006, 0.015] {
+            for window in [32, 48] {
+                for seed in [1, 2] {
+                    measure(&corrsum, flow, density, (256, window), seed, &mut c);
+                    measure(&motion, flow, density, (256, window), seed, &mut m);
+                }
+            }
+        }
+    }
+    println!("{}", c.describe("corrsum"));
+    println!("{}", m.describe("motion"));
+}
