@@ -110,7 +110,10 @@ fn measure<E: Estimator>(
         let w = grid.window(i);
         let e = est.estimate(&slab, &w, t0, None, &mut scratch);
         if !e.status.is_valid() {
-            assert!(e.u_unc.is_nan() && e.v_unc.is_nan(), "invalid vector with σ");
+            assert!(
+                e.u_unc.is_nan() && e.v_unc.is_nan(),
+                "invalid vector with σ"
+            );
             continue;
         }
         let [cx, cy] = w.centre();
@@ -150,7 +153,10 @@ fn uncertainty_covers_the_true_errors_of_uniform_flows() {
     println!("{}", c.describe("corrsum"));
     println!("{}", m.describe("motion"));
     assert!(c.0.len() > 100 && m.0.len() > 100);
-    assert!(c.1 * 50 <= c.0.len() && m.1 * 50 <= m.0.len(), "σ missing on over 2 %");
+    assert!(
+        c.1 * 50 <= c.0.len() && m.1 * 50 <= m.0.len(),
+        "σ missing on over 2 %"
+    );
     assert!(c.coverage(1.0) >= 0.68 && c.coverage(2.0) >= 0.95);
     assert!(m.coverage(2.0) >= 0.8);
     assert!(c.rank_correlation() > 0.1 && m.rank_correlation() > 0.1);

@@ -127,7 +127,8 @@ mod tests {
         let n = values.len() as f64;
         let mean = values.iter().sum::<f64>() / n;
         let deleted: Vec<[f64; 2]> = values.iter().map(|&v| [-v, 2.0 * v]).collect();
-        let expected = (n / (n - 1.0) * values.iter().map(|v| (v - mean).powi(2)).sum::<f64>()).sqrt();
+        let expected =
+            (n / (n - 1.0) * values.iter().map(|v| (v - mean).powi(2)).sum::<f64>()).sqrt();
         let [sx, sy] = jackknife_sigma(&deleted);
         assert!((sx - expected).abs() < 1e-12);
         assert!((sy - 2.0 * expected).abs() < 1e-12);

@@ -169,7 +169,11 @@ pub(super) fn refine_with_kernel(
 /// Half-width of the neighbourhood of the integer maximum `peak` of a `width × height`
 /// plane whose values [`refine_with_kernel`] reads: the smoothed candidates at ±1 with their
 /// 3 × 3 blocks and the kernel's reach, or the 3 × 3 neighbourhood where it does not smooth.
-pub(super) fn fit_reach(kernel: &SmoothingKernel, [width, height]: [usize; 2], peak: &Peak) -> usize {
+pub(super) fn fit_reach(
+    kernel: &SmoothingKernel,
+    [width, height]: [usize; 2],
+    peak: &Peak,
+) -> usize {
     let (w, h) = (width as isize, height as isize);
     let (r0, c0) = (peak.row as isize, peak.col as isize);
     let sigma = kernel.sigma;

@@ -68,7 +68,8 @@ pub(super) fn peak_sigma(
     let blocks = Blocks::of(shape.w, shape.h);
     let count = blocks.count();
     work.labels.clear();
-    work.labels.extend((0..shape.w * shape.h).map(|i| blocks.at(i % shape.w, i / shape.w) as u32));
+    work.labels
+        .extend((0..shape.w * shape.h).map(|i| blocks.at(i % shape.w, i / shape.w) as u32));
     block_contributions(
         (a, b),
         stats,
@@ -90,8 +91,12 @@ pub(super) fn peak_sigma(
     for k in 0..count {
         let part = &work.contributions[k * cells..(k + 1) * cells];
         work.deleted.clear();
-        work.deleted
-            .extend(work.local.iter().zip(part).map(|(v, c)| v - DELETED_SHARE * c));
+        work.deleted.extend(
+            work.local
+                .iter()
+                .zip(part)
+                .map(|(v, c)| v - DELETED_SHARE * c),
+        );
         let position = refine_with_kernel(&work.deleted, [side, side], &local_peak, kernel, fit);
         work.estimates.push(position.map(|p| p / DELETED_SHARE));
     }
@@ -219,7 +224,9 @@ mod tests {
         }
         let blocks = Blocks::of(16, 12);
         let count = blocks.count();
-        let labels: Vec<u32> = (0..16 * 12).map(|i| blocks.at(i % 16, i / 16) as u32).collect();
+        let labels: Vec<u32> = (0..16 * 12)
+            .map(|i| blocks.at(i % 16, i / 16) as u32)
+            .collect();
         let mut out = Vec::new();
         let lag = |l: usize| lags[l];
         block_contributions(
@@ -234,7 +241,10 @@ mod tests {
         assert!(image.iter().all(|&v| v == 0.0));
         for (l, e) in expected.iter().enumerate() {
             let total: f64 = (0..count).map(|k| out[k * 5 + l]).sum();
-            assert!((total - e).abs() < 1e-9 * (1.0 + e.abs()), "lag {l}: {total} vs {e}");
+            assert!(
+                (total - e).abs() < 1e-9 * (1.0 + e.abs()),
+                "lag {l}: {total} vs {e}"
+            );
         }
     }
 }
