@@ -135,6 +135,22 @@ pub fn gaussian_2d(n: [[f64; 3]; 3]) -> Option<(f64, f64)> {
     (dx.abs() <= 1.0 && dy.abs() <= 1.0).then_some((dx, dy))
 }
 
+/// Sub-pixel offset `[dx, dy]` of the maximum at the centre of the 3 × 3 neighbourhood
+/// `n[row][col]`: the 2-D Gaussian for [`SubPixelFit::Gaussian2d`] where it succeeds, else
+/// three-point fits per axis (0 where those fail), as [`find_peak`] fits.
+pub fn fit_offsets(n: [[f64; 3]; 3], fit: SubPixelFit) -> [f64; 2] {
+    if fit == SubPixelFit::Gaussian2d {
+        if let Some((dx, dy)) = gaussian_2d(n) {
+            return [dx, dy];
+        }
+    }
+    let fit1 = fit.per_axis();
+    [
+        three_point(n[1][0], n[1][1], n[1][2], fit1).unwrap_or(0.0),
+        three_point(n[0][1], n[1][1], n[2][1], fit1).unwrap_or(0.0),
+    ]
+}
+
 /// Locate the maximum of a `width` × `height` row-major map, fit it to sub-pixel accuracy,
 /// and find the second-highest local maximum at least `exclusion` samples (Chebyshev
 /// distance) away. `None` for an empty map or one without a finite value.
@@ -212,21 +228,17 @@ fn fitted_peak(
     let on_edge_y = row == 0 || row + 1 == height;
     let mut x = col as f64;
     let mut y = row as f64;
-    let mut fitted = false;
-    if fit == SubPixelFit::Gaussian2d && !on_edge_x && !on_edge_y {
+    if !on_edge_x && !on_edge_y {
         let mut n = [[0.0; 3]; 3];
         for (dr, nr) in n.iter_mut().enumerate() {
             for (dc, v) in nr.iter_mut().enumerate() {
                 *v = at(row + dr - 1, col + dc - 1);
             }
         }
-        if let Some((dx, dy)) = gaussian_2d(n) {
-            x += dx;
-            y += dy;
-            fitted = true;
-        }
-    }
-    if !fitted {
+        let [dx, dy] = fit_offsets(n, fit);
+        x += dx;
+        y += dy;
+    } else {
         let fit1 = fit.per_axis();
         if !on_edge_x {
             x += three_point(at(row, col - 1), value, at(row, col + 1), fit1).unwrap_or(0.0);

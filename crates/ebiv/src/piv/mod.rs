@@ -27,6 +27,7 @@
 pub mod correlate;
 pub mod events;
 pub mod images;
+mod uncertainty;
 
 pub use crate::deform::frames::{DenseField, Interpolation, Resampler};
 pub use correlate::{CorrelationKind, Correlator};
@@ -431,6 +432,8 @@ struct Scratch {
     plane: Vec<f64>,
     a: Vec<f32>,
     b: Vec<f32>,
+    /// Blocks' contributions to the plane near its peak ([`uncertainty`]).
+    contributions: Vec<f64>,
 }
 
 /// One evaluation of every window of `grid`, with the frames deformed by `predictor`.
@@ -468,6 +471,7 @@ fn evaluate_pass(
                 plane: vec![0.0; ww * wh],
                 a: vec![0.0; ww * wh],
                 b: vec![0.0; ww * wh],
+                contributions: Vec::new(),
             },
             |scratch, i| {
                 if grid.is_masked(i, params.mask.as_ref()) {
@@ -610,5 +614,28 @@ fn correlate_window(
     result.u = (base[0] + rx) as f32;
     result.v = (base[1] + ry) as f32;
     result.status = Status::VALID;
+    let Scratch {
+        a,
+        b,
+        contributions,
+        ..
+    } = scratch;
+    let mut each_pair = |add: &mut dyn FnMut(uncertainty::WindowPair<'_>)| {
+        for (fa, fb) in frames {
+            extract(fa, window, mask, a);
+            extract(fb, window, mask, b);
+            add((&a[..w * h], &b[..w * h]));
+        }
+    };
+    let [su, sv] = uncertainty::peak_sigma(
+        [w, h],
+        params.correlation,
+        &peak,
+        params.fit,
+        &mut each_pair,
+        contributions,
+    );
+    result.u_unc = su as f32;
+    result.v_unc = sv as f32;
     result
 }
