@@ -18,6 +18,9 @@ const DELETED_SHARE: f64 = 0.1;
 /// The mean-free windows `a`, `b` (`w × h`, row-major) of each frame pair.
 pub(super) type WindowPair<'a> = (&'a [f32], &'a [f32]);
 
+/// A function that hands every frame pair's windows to the function it is given.
+pub(super) type EachPair<'a> = dyn FnMut(&mut dyn FnMut(WindowPair<'_>)) + 'a;
+
 /// Standard uncertainty, px per axis, of the displacement at `peak` of the plane that
 /// `pairs` give (shifted order: lag `(col − w/2, row − h/2)`), fitted with `fit`. NaN where
 /// the peak lies on the plane's border. `each_pair` hands every pair's windows to the
@@ -27,7 +30,7 @@ pub(super) fn peak_sigma(
     kind: CorrelationKind,
     peak: &Peak,
     fit: SubPixelFit,
-    each_pair: &mut dyn FnMut(&mut dyn FnMut(WindowPair<'_>)),
+    each_pair: &mut EachPair<'_>,
     contributions: &mut Vec<f64>,
 ) -> [f64; 2] {
     if peak.on_edge {
