@@ -16,7 +16,7 @@
 //! uncertainty, status and quality variables by the NetCDF and CSV writers.
 
 mod csv;
-mod netcdf;
+pub(crate) mod netcdf;
 mod npz;
 mod tecplot;
 mod vtk;

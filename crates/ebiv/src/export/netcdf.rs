@@ -40,7 +40,8 @@ fn nc_err(path: &Path, e: impl std::fmt::Debug) -> Error {
 
 /// Global attributes the writer may set itself; series attributes of the same (sanitised)
 /// name are left out when their value is the writer's, else written with a `user_` prefix.
-const OWN_GLOBALS: [&str; 10] = [
+/// The reader ([`crate::io::field`]) does not copy them back into a series' attributes.
+pub(crate) const OWN_GLOBALS: [&str; 10] = [
     "Conventions",
     "axis_convention",
     "software",

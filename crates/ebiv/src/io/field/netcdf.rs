@@ -12,18 +12,7 @@ use crate::sim::flow::gridded::netcdf::Reader;
 use std::path::Path;
 
 /// Global attributes the writer sets itself, not copied into the series' attributes.
-const WRITER_GLOBALS: [&str; 10] = [
-    "Conventions",
-    "axis_convention",
-    "software",
-    "field_time",
-    "status_flags",
-    "mm_per_px",
-    "origin_px",
-    "y_positive",
-    "time_origin_us",
-    "title",
-];
+use crate::export::netcdf::OWN_GLOBALS as WRITER_GLOBALS;
 
 fn global_number(r: &Reader, name: &str) -> Vec<f64> {
     let ds = r.reader.data_set();
