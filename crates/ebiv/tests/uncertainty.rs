@@ -53,14 +53,23 @@ impl Pairs {
         cov / (va * vb).sqrt()
     }
 
+    /// How many times too large σ is, robustly: 0.674 (the median |e/σ| of normal errors
+    /// with the right σ) over the median |e/σ|.
+    fn scale(&self) -> f64 {
+        let mut z: Vec<f64> = self.0.iter().map(|(e, s)| (e / s).abs()).collect();
+        z.sort_by(f64::total_cmp);
+        0.674 / z.get(z.len() / 2).copied().unwrap_or(f64::NAN)
+    }
+
     fn describe(&self, name: &str) -> String {
         format!(
-            "{name}: {} components ({} more without σ), within ±1σ {:.1} %, within ±2σ {:.1} %, rank correlation |e|–σ {:.2}",
+            "{name}: {} components ({} more without σ), within ±1σ {:.1} %, within ±2σ {:.1} %, rank correlation |e|–σ {:.2}, σ too large by {:.2}×",
             self.0.len(),
             self.1,
             100.0 * self.coverage(1.0),
             100.0 * self.coverage(2.0),
-            self.rank_correlation()
+            self.rank_correlation(),
+            self.scale()
         )
     }
 }
@@ -163,22 +172,34 @@ fn uncertainty_covers_the_true_errors_of_uniform_flows() {
 }
 
 /// The coverage table of `docs/uncertainty.md`: four uniform flows (0.7–4.1 px/ms), three
-/// densities (0.002–0.015 particles/px), 32 and 48 px windows, two seeds, 256 × 256 px.
+/// densities (0.002–0.015 particles/px), 32 and 48 px windows, two seeds, 256 × 256 px;
+/// pooled, then per density.
 #[test]
 #[ignore = "validation sweep, minutes: run with --release -- --ignored --nocapture"]
 fn coverage_sweep() {
     let (corrsum, motion) = estimators();
     let (mut c, mut m) = (Pairs::default(), Pairs::default());
-    for flow in [(1.5, 0.2), (2.1666667, 0.8333333), (0.6, -0.3), (4.0, 1.0)] {
-        for density in [0.002, 0.006, 0.015] {
+    let mut lines = Vec::new();
+    for density in [0.002, 0.006, 0.015] {
+        let (mut cd, mut md) = (Pairs::default(), Pairs::default());
+        for flow in [(1.5, 0.2), (2.1666667, 0.8333333), (0.6, -0.3), (4.0, 1.0)] {
             for window in [32, 48] {
                 for seed in [1, 2] {
-                    measure(&corrsum, flow, density, (256, window), seed, &mut c);
-                    measure(&motion, flow, density, (256, window), seed, &mut m);
+                    measure(&corrsum, flow, density, (256, window), seed, &mut cd);
+                    measure(&motion, flow, density, (256, window), seed, &mut md);
                 }
             }
         }
+        lines.push(cd.describe(&format!("corrsum at {density} particles/px")));
+        lines.push(md.describe(&format!("motion at {density} particles/px")));
+        c.0.extend(cd.0);
+        c.1 += cd.1;
+        m.0.extend(md.0);
+        m.1 += md.1;
     }
     println!("{}", c.describe("corrsum"));
     println!("{}", m.describe("motion"));
+    for line in lines {
+        println!("{line}");
+    }
 }

@@ -100,7 +100,10 @@ pub(super) fn peak_sigma(
             fit_offsets(grid(&deleted), fit).map(|d| d / DELETED_SHARE)
         })
         .collect();
-    jackknife_sigma(&estimates)
+    let weights: Vec<f64> = (0..blocks.count())
+        .map(|k| contributions[k * 9 + 4])
+        .collect();
+    jackknife_sigma(&estimates, &weights)
 }
 
 #[cfg(test)]

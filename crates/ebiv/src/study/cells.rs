@@ -3,7 +3,7 @@
 //!
 //! A cell's key is a hash of everything that determines its result: the scenario table with
 //! the swept values and the seed, every `ebiv process` setting (defaults included), the
-//! method, the field count and margin, and [`FORMAT`]. A rerun finds a finished cell by its
+//! method, the field count and margin, [`FORMAT`] and [`CODE_VERSION`]. A rerun finds a finished cell by its
 //! key and skips it; a changed study has other keys and so never reuses a stale result.
 //! Each finished cell is one file `cells/KEY.toml` (its metrics) beside `cells/KEY.csv` (its
 //! valid vectors, for the figures), both written through temporary files, the metrics last:
@@ -15,9 +15,13 @@ use crate::error::{Error, Result};
 use std::path::{Path, PathBuf};
 use toml::{Table, Value};
 
-/// Version of the cell files and of what a cell computes; part of every key, so that cells
-/// of an incompatible version are recomputed.
-pub const FORMAT: &str = "ebiv-study-cell-1";
+/// Version of the cell files and of what a cell computes; part of every key with the version
+/// of ebiv ([`CODE_VERSION`]), so that cells of another version are recomputed.
+pub const FORMAT: &str = "ebiv-study-cell-2";
+
+/// The version of ebiv that computes the cells: a study rerun by another version of ebiv
+/// recomputes every cell rather than mix results of two versions.
+pub const CODE_VERSION: &str = env!("CARGO_PKG_VERSION");
 
 /// One cell of a study.
 #[derive(Debug, Clone, PartialEq)]
@@ -50,7 +54,7 @@ pub fn cells(spec: &StudySpec) -> Result<Vec<Cell>> {
                 let scenario = canonical_table(&spec.scenario_table(&values, seed));
                 let recording = hex(fnv1a(scenario.as_bytes()));
                 let all_of_it = format!(
-                    "{FORMAT}\nscenario {scenario}\nprocess {}\nfields {}\nmargin {}\n",
+                    "{FORMAT} {CODE_VERSION}\nscenario {scenario}\nprocess {}\nfields {}\nmargin {}\n",
                     pairs.join(";"),
                     spec.fields,
                     spec.margin_us

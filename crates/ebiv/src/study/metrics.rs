@@ -1,8 +1,9 @@
 //! What a study measures in each cell: the errors of the measured fields against the
 //! simulator's truth, and for solid-body rotation the EBIV paper's turntable analysis.
 //!
-//! The error statistics are [`crate::assess::field_errors`] (bias, random error, RMS and mean
-//! end-point error, DVR; Raffel et al. conventions, Adrian 1997 for the DVR); the gross-error
+//! The error statistics are those of `ebiv assess` ([`crate::assess::assess`] with its
+//! default options): bias, random error, RMS, mean and median end-point error, DVR (Adrian
+//! 1997), the outlier share, and the coverage of the per-vector uncertainty; the gross-error
 //! share uses the envelope study's limit ([`gross_limit`]); the peak-locking index is
 //! [`peak_locking_index`] of the displacements (Christensen 2004, Exp. Fluids 36:484). For a
 //! solid-body rotation the tangential velocity of the valid vectors is fitted linearly
@@ -11,13 +12,13 @@
 //! from the fit the random error the paper quotes (0.02 px/ms at T = 10 ms, DVR ≈ 175).
 
 use crate::assess::envelope::gross_limit;
-use crate::assess::field_errors;
+use crate::assess::{assess, AssessOptions};
 use crate::field::FieldSeries;
 use crate::render::peak_locking_index;
 use crate::sim::FlowSpec;
 
 /// Every metric: name (a column of `results.csv`), unit, meaning.
-pub const METRICS: [(&str, &str, &str); 20] = [
+pub const METRICS: [(&str, &str, &str); 25] = [
     ("vectors", "", "vectors in the fields"),
     ("valid_share", "", "share of the vectors that are valid"),
     ("bias_u", "px/ms", "mean error of u"),
@@ -26,6 +27,7 @@ pub const METRICS: [(&str, &str, &str); 20] = [
     ("random_v", "px/ms", "standard deviation of the error of v"),
     ("rms", "px/ms", "RMS end-point error"),
     ("aee", "px/ms", "mean end-point error"),
+    ("median_error", "px/ms", "median end-point error"),
     ("max_error", "px/ms", "largest end-point error"),
     (
         "dvr",
@@ -36,6 +38,26 @@ pub const METRICS: [(&str, &str, &str); 20] = [
         "gross_share",
         "",
         "share of valid vectors off by more than max(0.2 px/ms, 10 % of |v|)",
+    ),
+    (
+        "outlier_share",
+        "",
+        "share of valid vectors off by more than 0.5 px over their slab (at least 0.1 px/ms), as `ebiv assess` counts them",
+    ),
+    (
+        "within_1_sigma",
+        "",
+        "share of the error components within ±1 σ of the per-vector uncertainty (0.683 when σ is right)",
+    ),
+    (
+        "within_2_sigma",
+        "",
+        "share of the error components within ±2 σ of the per-vector uncertainty (0.954 when σ is right)",
+    ),
+    (
+        "sigma_rank",
+        "",
+        "Spearman rank correlation of |error| and σ",
     ),
     (
         "peak_locking",
@@ -172,7 +194,7 @@ pub fn measure(
     events: usize,
     seconds: f64,
 ) -> Vec<(&'static str, f64)> {
-    let e = field_errors(series, truth);
+    let e = assess(series, truth, &AssessOptions::default());
     let gross = vectors
         .iter()
         .filter(|r| (r.u - r.u_true).hypot(r.v - r.v_true) > gross_limit(r.u_true.hypot(r.v_true)))
@@ -194,16 +216,21 @@ pub fn measure(
     };
     let mut m = vec![
         ("vectors", e.total as f64),
-        ("valid_share", e.valid_share()),
+        ("valid_share", e.valid_share),
         ("bias_u", e.bias[0]),
         ("bias_v", e.bias[1]),
         ("random_u", e.random[0]),
         ("random_v", e.random[1]),
         ("rms", e.rms),
         ("aee", e.aee),
+        ("median_error", e.median),
         ("max_error", e.max),
-        ("dvr", e.dvr()),
+        ("dvr", e.dvr),
         ("gross_share", share(gross)),
+        ("outlier_share", e.outlier_share),
+        ("within_1_sigma", e.coverage.within_1_sigma),
+        ("within_2_sigma", e.coverage.within_2_sigma),
+        ("sigma_rank", e.coverage.spearman),
         ("peak_locking", locking),
     ];
     let rotation = match flow {

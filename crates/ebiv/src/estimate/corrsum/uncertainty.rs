@@ -7,7 +7,8 @@
 //! ([`direct::correlations_at`](super::direct::correlations_at)). Grouping the products by the
 //! block of `x` splits the plane near the peak into the contributions of the window's blocks,
 //! which add up to it exactly; the peak is fitted again, as the estimator fits it (smoothing
-//! and sub-pixel fit), with each block's contribution taken out.
+//! and sub-pixel fit), with each block's contribution taken out. A block weighs its
+//! contribution to the peak.
 
 use super::fit::{fit_reach, refine_with_kernel, SmoothingKernel};
 use super::voxels::{PlaneShape, SliceStats, SubVolume};
@@ -27,6 +28,8 @@ pub(super) struct BlockPlanes {
     deleted: Vec<f64>,
     /// Peak positions with one block taken out.
     estimates: Vec<[f64; 2]>,
+    /// Each block's contribution to the peak, its weight.
+    weights: Vec<f64>,
     /// Block of each pixel of the window.
     labels: Vec<u32>,
 }
@@ -100,7 +103,11 @@ pub(super) fn peak_sigma(
         let position = refine_with_kernel(&work.deleted, [side, side], &local_peak, kernel, fit);
         work.estimates.push(position.map(|p| p / DELETED_SHARE));
     }
-    jackknife_sigma(&work.estimates)
+    let centre = reach * side + reach;
+    work.weights.clear();
+    work.weights
+        .extend((0..count).map(|k| work.contributions[k * cells + centre]));
+    jackknife_sigma(&work.estimates, &work.weights)
 }
 
 /// The contributions of each block (`labels`: the block of each pixel, `blocks` of them) to

@@ -125,6 +125,8 @@ pub(crate) struct SearchScratch {
     votes: VoteScratch,
     /// Gradients of the blocks of warped events ([`super::uncertainty`]).
     gradients: Vec<[f64; 2]>,
+    /// Events of the blocks of warped events.
+    block_events: Vec<f64>,
 }
 
 /// The search of one window.
@@ -347,7 +349,7 @@ impl Search<'_> {
             &canvas,
             self.fine,
             &mut s.work,
-            &mut s.gradients,
+            (&mut s.gradients, &mut s.block_events),
         )
     }
 

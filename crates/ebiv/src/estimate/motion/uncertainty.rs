@@ -7,7 +7,7 @@
 //! block holds the events of the particle images there, and the scatter of the blocks'
 //! gradients at the maximum, through the inverse Hessian, gives the covariance of the
 //! maximum: the curvature of the contrast objective (how sharply the events focus) against
-//! how consistently its parts agree on where the focus lies.
+//! how consistently its parts agree on where the focus lies. A block weighs its events.
 
 use super::iwe::{derivatives, Canvas, Events, SplatTable, Workspace};
 use crate::estimate::uncertainty::{sandwich_sigma, BLOCK_PX};
@@ -20,7 +20,7 @@ pub(super) fn velocity_sigma(
     canvas: &Canvas,
     table: &SplatTable,
     work: &mut Workspace,
-    gradients: &mut Vec<[f64; 2]>,
+    (gradients, events_in): (&mut Vec<[f64; 2]>, &mut Vec<f64>),
 ) -> [f64; 2] {
     if events.t.len() < 2 || velocity.iter().any(|v| !v.is_finite()) {
         return [f64::NAN; 2];
@@ -51,6 +51,8 @@ pub(super) fn velocity_sigma(
     }
     gradients.clear();
     gradients.resize(across * down, [0.0; 2]);
+    events_in.clear();
+    events_in.resize(across * down, 0.0);
     for (i, g) in work.event_gradients.iter().enumerate().take(n) {
         let p = warped(i);
         let col = (((p[0] - lo[0]) / block) as usize).min(across - 1);
@@ -58,6 +60,7 @@ pub(super) fn velocity_sigma(
         let cell = &mut gradients[row * across + col];
         cell[0] += g[0];
         cell[1] += g[1];
+        events_in[row * across + col] += 1.0;
     }
-    sandwich_sigma(d.hessian, gradients)
+    sandwich_sigma(d.hessian, gradients, events_in)
 }
