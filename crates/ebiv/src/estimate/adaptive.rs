@@ -346,7 +346,12 @@ impl<E: Estimator> AdaptiveSlab<E> {
     ) -> WindowEstimate {
         let estimator = &self.estimators[k];
         let dims = scratch.window;
-        let own = scratch.per_slab[k].get_or_insert_with(|| estimator.scratch(dims));
+        let skip = scratch.skip_uncertainty;
+        let own = scratch.per_slab[k].get_or_insert_with(|| {
+            let mut own = estimator.scratch(dims);
+            estimator.skip_uncertainty(&mut own, skip);
+            own
+        });
         estimator.estimate(slab, window, t0_us, predictor, own)
     }
 }
@@ -355,6 +360,8 @@ impl<E: Estimator> AdaptiveSlab<E> {
 pub struct AdaptiveScratch<S> {
     window: [u32; 2],
     per_slab: Vec<Option<S>>,
+    /// No per-vector uncertainty ([`Estimator::skip_uncertainty`]).
+    skip_uncertainty: bool,
 }
 
 /// Statuses that a longer slab, holding more events, may cure.
@@ -372,6 +379,16 @@ impl<E: Estimator> Estimator for AdaptiveSlab<E> {
         AdaptiveScratch {
             window,
             per_slab: (0..self.slabs.len()).map(|_| None).collect(),
+            skip_uncertainty: false,
+        }
+    }
+
+    fn skip_uncertainty(&self, scratch: &mut Self::Scratch, skip: bool) {
+        scratch.skip_uncertainty = skip;
+        for (estimator, own) in self.estimators.iter().zip(&mut scratch.per_slab) {
+            if let Some(own) = own {
+                estimator.skip_uncertainty(own, skip);
+            }
         }
     }
 

@@ -868,6 +868,10 @@ impl Estimator for SumOfCorrelation {
         CorrSumScratch::new(window, self.radius(window), self.params.slices)
     }
 
+    fn skip_uncertainty(&self, scratch: &mut CorrSumScratch, skip: bool) {
+        scratch.skip_uncertainty = skip;
+    }
+
     fn time_extent_us(&self) -> (i64, i64) {
         let e = self.half_extent_us();
         (e, e)
@@ -883,7 +887,9 @@ impl Estimator for SumOfCorrelation {
     ) -> WindowEstimate {
         let size = [window.width, window.height];
         if scratch.window != size || scratch.slices != self.params.slices {
+            let skip = scratch.skip_uncertainty;
             *scratch = self.scratch(size);
+            scratch.skip_uncertainty = skip;
         }
         let tau_ms = self.params.tau_us as f64 / 1000.0;
         let predictor = predictor.filter(|p| p.velocity.iter().all(|v| v.is_finite()));
@@ -947,9 +953,11 @@ impl Estimator for SumOfCorrelation {
         result.status = Status::VALID;
         // The uncertainty from the sub-volumes the plane was computed from, before the
         // evidence tests bin other ones.
-        let [su, sv] = self.peak_uncertainty(&peak, scratch);
-        result.u_unc = (su / tau_ms) as f32;
-        result.v_unc = (sv / tau_ms) as f32;
+        if !scratch.skip_uncertainty {
+            let [su, sv] = self.peak_uncertainty(&peak, scratch);
+            result.u_unc = (su / tau_ms) as f32;
+            result.v_unc = (sv / tau_ms) as f32;
+        }
         let predicted = predictor.is_some();
         if let Some(status) = self.own_evidence(slab, window, t0_us, [dx, dy], predicted, scratch) {
             result.status = status;
@@ -1029,6 +1037,8 @@ pub struct CorrSumScratch {
     fourier: Option<Fourier>,
     /// Working memory of the peak's uncertainty.
     blocks: uncertainty::BlockPlanes,
+    /// No per-vector uncertainty ([`Estimator::skip_uncertainty`]).
+    skip_uncertainty: bool,
 }
 
 impl CorrSumScratch {
@@ -1056,6 +1066,7 @@ impl CorrSumScratch {
             accumulators: direct::Accumulators::new(shape),
             fourier: None,
             blocks: Default::default(),
+            skip_uncertainty: false,
         }
     }
 

@@ -131,6 +131,12 @@ pub trait Estimator: Sync {
     /// The parameters as `(name, value with unit)` pairs, for output metadata.
     fn parameters(&self) -> Vec<(String, String)>;
 
+    /// Turn off (`skip`) or back on the per-vector uncertainty (`u_unc`, `v_unc`) of the
+    /// estimates made with `scratch`; it is on in a new scratch. The passes whose vectors
+    /// only predict the next pass skip it: for sum of correlation it costs more than the
+    /// estimate itself.
+    fn skip_uncertainty(&self, _scratch: &mut Self::Scratch, _skip: bool) {}
+
     /// True if [`Prediction::search_radius`] restricts the search to a lower peak whose
     /// `peak` is comparable with that of the unrestricted estimate (same correlation plane),
     /// so that multiple-peak validation can use this estimator.

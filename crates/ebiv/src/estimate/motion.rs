@@ -292,6 +292,8 @@ pub struct MotionScratch {
     events: Events,
     search: SearchScratch,
     start: Option<CorrSumScratch>,
+    /// No per-vector uncertainty ([`Estimator::skip_uncertainty`]).
+    skip_uncertainty: bool,
 }
 
 /// Default half-width of the search range without a predictor, in windows per slab: a
@@ -448,6 +450,10 @@ impl Estimator for ContrastMaximization {
         MotionScratch::default()
     }
 
+    fn skip_uncertainty(&self, scratch: &mut MotionScratch, skip: bool) {
+        scratch.skip_uncertainty = skip;
+    }
+
     fn time_extent_us(&self) -> (i64, i64) {
         let before = self.params.slab_us / 2;
         (before, self.params.slab_us - before)
@@ -498,7 +504,12 @@ impl Estimator for ContrastMaximization {
         let range = self.search_range(dims, predictor.is_some());
         let (mut correlated, mut beyond) = (None, false);
         if let (None, Some(start)) = (predictor, &self.start) {
-            let scratch = scratch.start.get_or_insert_with(|| start.scratch(dims));
+            let scratch = scratch.start.get_or_insert_with(|| {
+                // Only the start's velocity is used.
+                let mut s = start.scratch(dims);
+                start.skip_uncertainty(&mut s, true);
+                s
+            });
             let e = start.estimate(slab, window, t0_us, None, scratch);
             let valid = e.status.is_valid() && e.u.is_finite() && e.v.is_finite();
             correlated = valid.then_some([e.u, e.v]);
@@ -532,7 +543,7 @@ impl Estimator for ContrastMaximization {
             status = Status::FEW_EVENTS;
         }
         let valid = status.is_valid();
-        let [u_unc, v_unc] = if valid {
+        let [u_unc, v_unc] = if valid && !scratch.skip_uncertainty {
             search.uncertainty(out.velocity, &mut scratch.search)
         } else {
             [f64::NAN; 2]

@@ -111,6 +111,8 @@ pub struct PivParams {
     /// Pixels to leave out: they count as the window mean; windows whose centre is masked
     /// are not evaluated.
     pub mask: Option<Mask>,
+    /// Estimate the per-vector uncertainty on the last pass.
+    pub uncertainty: bool,
 }
 
 impl Default for PivParams {
@@ -131,6 +133,7 @@ impl Default for PivParams {
             last_pass_repeats: 2,
             repeat_tolerance: 0.01,
             mask: None,
+            uncertainty: true,
         }
     }
 }
@@ -340,6 +343,7 @@ pub fn piv_ensemble(pairs: &[(&Frame, &Frame)], params: &PivParams) -> Result<Pi
             repeat_tolerance: params.repeat_tolerance,
             secondary_peaks: false,
             replace_final: params.replace_final,
+            uncertainty: params.uncertainty,
         },
     );
     Ok(PivOutput {
@@ -358,8 +362,19 @@ struct FramePasses<'a> {
 }
 
 impl PassEvaluator for FramePasses<'_> {
-    fn evaluate(&self, grid: &Grid, predictor: Option<&VectorField>) -> VectorField {
-        evaluate_pass(self.pairs, self.resamplers, grid, self.params, predictor)
+    fn evaluate(
+        &self,
+        grid: &Grid,
+        predictor: Option<&VectorField>,
+        uncertainty: bool,
+    ) -> VectorField {
+        evaluate_pass(
+            self.pairs,
+            self.resamplers,
+            grid,
+            self.params,
+            (predictor, uncertainty),
+        )
     }
 
     fn prepare_predictor(&self, field: &mut VectorField) {
@@ -434,15 +449,18 @@ struct Scratch {
     b: Vec<f32>,
     /// Blocks' contributions to the plane near its peak ([`uncertainty`]).
     contributions: Vec<f64>,
+    /// Whether to estimate the per-vector uncertainty.
+    uncertainty: bool,
 }
 
-/// One evaluation of every window of `grid`, with the frames deformed by `predictor`.
+/// One evaluation of every window of `grid`, with the frames deformed by `predictor`, with
+/// or without the per-vector uncertainty.
 fn evaluate_pass(
     pairs: &[(&Frame, &Frame)],
     resamplers: &[(Resampler, Resampler)],
     grid: &Grid,
     params: &PivParams,
-    predictor: Option<&VectorField>,
+    (predictor, uncertainty): (Option<&VectorField>, bool),
 ) -> VectorField {
     let (width, height) = (pairs[0].0.width as usize, pairs[0].0.height as usize);
     let dense = predictor.map(|p| DenseField::from_field(p, width, height));
@@ -472,6 +490,7 @@ fn evaluate_pass(
                 a: vec![0.0; ww * wh],
                 b: vec![0.0; ww * wh],
                 contributions: Vec::new(),
+                uncertainty,
             },
             |scratch, i| {
                 if grid.is_masked(i, params.mask.as_ref()) {
@@ -614,6 +633,9 @@ fn correlate_window(
     result.u = (base[0] + rx) as f32;
     result.v = (base[1] + ry) as f32;
     result.status = Status::VALID;
+    if !scratch.uncertainty {
+        return result;
+    }
     let Scratch {
         a,
         b,

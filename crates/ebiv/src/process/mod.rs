@@ -94,6 +94,9 @@ pub struct ProcessParams {
     /// with [`Estimator::finds_secondary_peaks`], i.e. sum of correlation). Single passes
     /// are never re-evaluated.
     pub secondary_peaks: bool,
+    /// Estimate the per-vector uncertainty on the last pass ([`Estimator::skip_uncertainty`]
+    /// on the others, and everywhere when false).
+    pub uncertainty: bool,
 }
 
 impl Default for ProcessParams {
@@ -109,6 +112,7 @@ impl Default for ProcessParams {
             last_pass_repeats: 2,
             repeat_tolerance: 0.005,
             secondary_peaks: true,
+            uncertainty: true,
         }
     }
 }
@@ -187,6 +191,7 @@ pub fn process_slab<E: Estimator>(
             repeat_tolerance: params.repeat_tolerance,
             secondary_peaks: params.secondary_peaks && estimator.finds_secondary_peaks(),
             replace_final: params.replace_final,
+            uncertainty: params.uncertainty,
         },
     );
     FieldResult {
@@ -205,14 +210,19 @@ struct EventPasses<'a, E> {
 }
 
 impl<E: Estimator> PassEvaluator for EventPasses<'_, E> {
-    fn evaluate(&self, grid: &Grid, predictor: Option<&VectorField>) -> VectorField {
+    fn evaluate(
+        &self,
+        grid: &Grid,
+        predictor: Option<&VectorField>,
+        uncertainty: bool,
+    ) -> VectorField {
         evaluate_pass(
             self.estimator,
             self.slab,
             self.t0_us,
             grid,
             self.params,
-            predictor,
+            (predictor, uncertainty),
         )
     }
 
@@ -240,19 +250,24 @@ impl<E: Estimator> PassEvaluator for EventPasses<'_, E> {
     }
 }
 
-/// One pass: every window of `grid` in parallel, each with its predictor.
+/// One pass: every window of `grid` in parallel, each with its predictor, with or without
+/// the per-vector uncertainty.
 fn evaluate_pass<E: Estimator>(
     estimator: &E,
     slab: &Slab,
     t0_us: i64,
     grid: &Grid,
     params: &ProcessParams,
-    predictor: Option<&VectorField>,
+    (predictor, uncertainty): (Option<&VectorField>, bool),
 ) -> VectorField {
     let estimates: Vec<_> = (0..grid.len())
         .into_par_iter()
         .map_init(
-            || estimator.scratch(grid.window),
+            || {
+                let mut scratch = estimator.scratch(grid.window);
+                estimator.skip_uncertainty(&mut scratch, !uncertainty);
+                scratch
+            },
             |scratch, i| {
                 if grid.is_masked(i, params.mask.as_ref()) {
                     return crate::estimate::WindowEstimate::invalid(Status::MASKED, 0, 0);

@@ -22,8 +22,15 @@ use crate::validate::{self, ValidationParams, ValidationSummary};
 /// What a method does in a pass.
 pub trait PassEvaluator {
     /// Evaluate every window of `grid`, with `predictor` (a field prepared by
-    /// [`PassEvaluator::prepare_predictor`]) from the previous pass, if any.
-    fn evaluate(&self, grid: &Grid, predictor: Option<&VectorField>) -> VectorField;
+    /// [`PassEvaluator::prepare_predictor`]) from the previous pass, if any; with the
+    /// per-vector uncertainty when `uncertainty` (the passes on the last grid: the earlier
+    /// ones only predict).
+    fn evaluate(
+        &self,
+        grid: &Grid,
+        predictor: Option<&VectorField>,
+        uncertainty: bool,
+    ) -> VectorField;
 
     /// Turn a validated field into the predictor of the next pass.
     fn prepare_predictor(&self, field: &mut VectorField);
@@ -58,6 +65,8 @@ pub struct MultiPass<'a> {
     pub secondary_peaks: bool,
     /// Replace the outliers of the final field (they keep their flag plus `replaced`).
     pub replace_final: bool,
+    /// Estimate the per-vector uncertainty in the evaluations of the last grid.
+    pub uncertainty: bool,
 }
 
 /// What one pass did.
@@ -107,7 +116,8 @@ pub fn run_passes(
     let mut iterations = 0;
     for k in 0..evaluations {
         let grid = &grids[k.min(last)];
-        let mut field = evaluator.evaluate(grid, predictor.as_ref());
+        let mut field =
+            evaluator.evaluate(grid, predictor.as_ref(), settings.uncertainty && k >= last);
         let mut validation = validate::validate(&mut field, settings.validation);
         iterations += 1;
         // Only repetitions of the last pass have a previous field to compare with.
@@ -183,7 +193,12 @@ mod tests {
     }
 
     impl PassEvaluator for Scripted {
-        fn evaluate(&self, grid: &Grid, _predictor: Option<&VectorField>) -> VectorField {
+        fn evaluate(
+            &self,
+            grid: &Grid,
+            _predictor: Option<&VectorField>,
+            _uncertainty: bool,
+        ) -> VectorField {
             let mut seen = self.seen.borrow_mut();
             let value = self.values[seen.len()];
             seen.push(grid.window[0]);
@@ -213,6 +228,7 @@ mod tests {
             repeat_tolerance: 0.01,
             secondary_peaks: false,
             replace_final: false,
+            uncertainty: true,
         }
     }
 

@@ -92,7 +92,11 @@ pub(super) fn reevaluate_outliers<E: Estimator>(
                 deformation,
                 search_radius: Some(tolerance),
             };
-            let scratch = scratch.get_or_insert_with(|| estimator.scratch(grid.window));
+            let scratch = scratch.get_or_insert_with(|| {
+                let mut s = estimator.scratch(grid.window);
+                estimator.skip_uncertainty(&mut s, !params.uncertainty);
+                s
+            });
             let e = estimator.estimate(slab, &window, t0_us, Some(&prediction), scratch);
             // A NaN ratio: no other peak in the plane at all.
             let ratio = e.peak_ratio as f64;

@@ -324,6 +324,7 @@ fn run_attributes<E: Estimator>(estimator: &E, params: &ProcessParams) -> Vec<(S
             "secondary_peaks".to_string(),
             (params.secondary_peaks && estimator.finds_secondary_peaks()).to_string(),
         ),
+        ("uncertainty".to_string(), params.uncertainty.to_string()),
     ];
     a.extend(estimator.parameters());
     a

@@ -171,6 +171,10 @@ settings! {
         /// Re-evaluate the last pass's median-test outliers on a lower correlation peak near
         /// their neighbours' median (corrsum, multi-pass runs).
         secondary_peaks: bool = true; "";
+        /// Estimate each vector's standard uncertainty `u_unc`, `v_unc` on the last pass
+        /// (docs/uncertainty.md). Off, they are NaN, and sum of correlation runs about twice
+        /// as fast.
+        uncertainty: bool = true; "";
     }
     group "Validation" {
         /// Normalized median test threshold (Westerweel & Scarano 2005).

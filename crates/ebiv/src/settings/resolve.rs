@@ -253,6 +253,7 @@ impl ProcessSettings {
             predictor_smoothing: self.predictor_smoothing.unwrap_or(PIV_PREDICTOR_SMOOTHING),
             last_pass_repeats: self.last_pass_repeats,
             repeat_tolerance: self.repeat_tolerance.unwrap_or(PIV_REPEAT_TOLERANCE),
+            uncertainty: self.uncertainty,
             ..PivParams::default()
         };
         if let Some(fit) = self.fit {
@@ -279,6 +280,7 @@ impl ProcessSettings {
             last_pass_repeats: self.last_pass_repeats,
             repeat_tolerance: self.repeat_tolerance.unwrap_or(EVENT_REPEAT_TOLERANCE),
             secondary_peaks: self.secondary_peaks,
+            uncertainty: self.uncertainty,
         };
         if is_piv {
             piv.check()?;

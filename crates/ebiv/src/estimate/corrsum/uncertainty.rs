@@ -30,8 +30,8 @@ pub(super) struct BlockPlanes {
     estimates: Vec<[f64; 2]>,
     /// Each block's contribution to the peak, its weight.
     weights: Vec<f64>,
-    /// Block of each pixel of the window.
-    labels: Vec<u32>,
+    /// Per block, the products with the partners' slice means (see [`block_contributions`]).
+    means: Vec<f64>,
 }
 
 /// Standard uncertainty, px per axis, of the sub-pixel position of `peak` on `plane` (the
@@ -55,14 +55,11 @@ pub(super) fn peak_sigma(
     }
     let side = 2 * reach + 1;
     let cells = side * side;
-    // Lags of the neighbourhood, in the sub-volumes' pixels.
-    let lag = |cell: usize| {
-        let (i, j) = ((cell / side) as i64, (cell % side) as i64);
-        [
-            peak.col as i64 - reach as i64 + j - shape.rx as i64,
-            peak.row as i64 - reach as i64 + i - shape.ry as i64,
-        ]
-    };
+    // The lag of the neighbourhood's first cell, in the sub-volumes' pixels.
+    let origin = [
+        peak.col as i64 - reach as i64 - shape.rx as i64,
+        peak.row as i64 - reach as i64 - shape.ry as i64,
+    ];
     work.local.clear();
     for i in 0..side {
         let row = (peak.row - reach + i) * pw + peak.col - reach;
@@ -70,16 +67,13 @@ pub(super) fn peak_sigma(
     }
     let blocks = Blocks::of(shape.w, shape.h);
     let count = blocks.count();
-    work.labels.clear();
-    work.labels
-        .extend((0..shape.w * shape.h).map(|i| blocks.at(i % shape.w, i / shape.w) as u32));
     block_contributions(
         (a, b),
         stats,
         shape,
-        (&lag, cells),
-        (&work.labels, count),
-        image,
+        (origin, side),
+        blocks,
+        (image, &mut work.means),
         &mut work.contributions,
     );
     let local_peak = Peak {
@@ -91,8 +85,18 @@ pub(super) fn peak_sigma(
         ..*peak
     };
     work.estimates.clear();
+    // A block without voxels contributes nothing, and its deletion leaves the fit of the
+    // whole neighbourhood, computed once.
+    let mut undeleted = None;
     for k in 0..count {
         let part = &work.contributions[k * cells..(k + 1) * cells];
+        if part.iter().all(|&c| c == 0.0) {
+            let position = *undeleted.get_or_insert_with(|| {
+                refine_with_kernel(&work.local, [side, side], &local_peak, kernel, fit)
+            });
+            work.estimates.push(position.map(|p| p / DELETED_SHARE));
+            continue;
+        }
         work.deleted.clear();
         work.deleted.extend(
             work.local
@@ -111,61 +115,92 @@ pub(super) fn peak_sigma(
 }
 
 /// The contributions of each block (`labels`: the block of each pixel, `blocks` of them) to
-/// the plane at the `cells` lags `lag(0..cells)`, into `out` (block-major): the
-/// mean-subtracted products `a(x)(b(x + l) − b̄)` of the voxels `a(x)` in the block. The rest
-/// of the plane, `−ā Σ (b − b̄)` over the overlap, is a smooth function of the lag that
+/// the plane at the `side × side` lags from `origin` (row-major), into `out` (block-major):
+/// the mean-subtracted products `a(x)(b(x + l) − b̄)` of the voxels `a(x)` in the block. The
+/// rest of the plane, `−ā Σ (b − b̄)` over the overlap, is a smooth function of the lag that
 /// belongs to no block and is not taken out (split by the block of each partner pixel, it
 /// would step between neighbouring blocks as the lag changes, and the steps, which cancel in
-/// the sum, would pass for disagreement between the blocks). `image` is a zeroed `w × h` grid, left zeroed.
-#[allow(clippy::too_many_arguments)]
+/// the sum, would pass for disagreement between the blocks). `image` is a zeroed `w × h`
+/// grid, left zeroed; `means` is working memory.
+///
+/// A voxel whose lags all fall inside the window adds its products with one contiguous
+/// `side`-wide row of the partner image per lag row, and its share `a·b̄` of the mean term
+/// once per block (`means`); the products and the per-lag normalisation `1/(area × slices)`
+/// are combined at the end.
 fn block_contributions(
     (a, b): (SubVolume<'_>, SubVolume<'_>),
     stats: &[SliceStats],
     shape: PlaneShape,
-    (lag, cells): (&dyn Fn(usize) -> [i64; 2], usize),
-    (labels, blocks): (&[u32], usize),
-    image: &mut Vec<f64>,
+    (origin, side): ([i64; 2], usize),
+    blocks: Blocks,
+    (image, means): (&mut Vec<f64>, &mut Vec<f64>),
     out: &mut Vec<f64>,
 ) {
     let (w, h) = (shape.w as i64, shape.h as i64);
+    let cells = side * side;
     out.clear();
-    out.resize(blocks * cells, 0.0);
+    out.resize(blocks.count() * cells, 0.0);
+    means.clear();
+    means.resize(blocks.count(), 0.0);
     image.resize(shape.w * shape.h, 0.0);
-    let lags: Vec<[i64; 2]> = (0..cells).map(lag).collect();
-    let slices = stats.len() as f64;
-    // Per lag, the factor of every product: 1 / (overlap area × slices); 0 without overlap.
-    let scale: Vec<f64> = lags
-        .iter()
-        .map(|&[dx, dy]| {
-            let area = ((w - dx.abs()).max(0) * (h - dy.abs()).max(0)) as f64;
-            if area > 0.0 {
-                1.0 / (area * slices)
-            } else {
-                0.0
-            }
-        })
-        .collect();
-    let inside = |x: i64, y: i64| (0..w).contains(&x) && (0..h).contains(&y);
     let value = |v: SubVolume<'_>, i: usize| if v.vox.unit { 1.0 } else { v.vox.v[i] };
+    let span = side as i64;
     for s in stats {
         let (ra, rb) = (a.range(s.z), b.range(s.z));
         for j in rb.clone() {
             image[b.vox.y[j] as usize * shape.w + b.vox.x[j] as usize] = value(b, j);
         }
         for i in ra {
-            let (x, y, v) = (i64::from(a.vox.x[i]), i64::from(a.vox.y[i]), value(a, i));
-            let block = labels[y as usize * shape.w + x as usize] as usize;
+            let (x, y) = (i64::from(a.vox.x[i]), i64::from(a.vox.y[i]));
+            let c = s.weight * value(a, i);
+            let block = blocks.at(x as usize, y as usize);
             let row = &mut out[block * cells..][..cells];
-            for (l, &[dx, dy]) in lags.iter().enumerate() {
-                let (qx, qy) = (x + dx, y + dy);
-                if inside(qx, qy) {
-                    let partner = image[(qy * w + qx) as usize];
-                    row[l] += s.weight * scale[l] * v * (partner - s.mean_b);
+            let (x0, y0) = (x + origin[0], y + origin[1]);
+            if x0 >= 0 && y0 >= 0 && x0 + span <= w && y0 + span <= h {
+                means[block] += c * s.mean_b;
+                for (r, lags) in row.chunks_exact_mut(side).enumerate() {
+                    let start = ((y0 + r as i64) * w + x0) as usize;
+                    for (sum, partner) in lags.iter_mut().zip(&image[start..start + side]) {
+                        *sum += c * partner;
+                    }
+                }
+            } else {
+                // The lags whose partner lies in the window: columns `first..last` of the
+                // rows inside it.
+                let first = (-x0).clamp(0, span) as usize;
+                let last = (w - x0).clamp(0, span) as usize;
+                for (r, lags) in row.chunks_exact_mut(side).enumerate() {
+                    let qy = y0 + r as i64;
+                    if !(0..h).contains(&qy) || first >= last {
+                        continue;
+                    }
+                    let start = (qy * w + x0) as usize;
+                    let partners = &image[start + first..start + last];
+                    for (sum, partner) in lags[first..last].iter_mut().zip(partners) {
+                        *sum += c * (partner - s.mean_b);
+                    }
                 }
             }
         }
         for j in rb {
             image[b.vox.y[j] as usize * shape.w + b.vox.x[j] as usize] = 0.0;
+        }
+    }
+    // Per lag, the factor of every product: 1 / (overlap area × slices), the product of a
+    // factor per lag column and one per lag row; 0 without overlap.
+    let slices = stats.len() as f64;
+    let extent = |n: i64, from: i64, k: usize| (n - (from + k as i64).abs()).max(0) as f64;
+    for (row, mean) in out.chunks_exact_mut(cells).zip(means.iter()) {
+        for (r, lags) in row.chunks_exact_mut(side).enumerate() {
+            let height = extent(h, origin[1], r);
+            for (j, sum) in lags.iter_mut().enumerate() {
+                let area = extent(w, origin[0], j) * height;
+                *sum = if area > 0.0 {
+                    (*sum - mean) / (area * slices)
+                } else {
+                    0.0
+                };
+            }
         }
     }
 }
@@ -210,48 +245,53 @@ mod tests {
         let mut stats = Vec::new();
         slice_statistics(a, b, shape, &mut stats);
         assert_eq!(stats.len(), 3);
-        let lags = [[2, 1], [1, 1], [3, 1], [2, 0], [-4, 3]];
-        let mut image = Vec::new();
-        let mut expected = [0.0; 5];
-        correlations_at((a, b), &stats, shape, &lags, &mut image, &mut expected);
-        // The part that belongs to no block: −ā Σ (b − b̄) over the overlap, per slice.
-        for (l, &[dx, dy]) in lags.iter().enumerate() {
-            let area = ((16 - dx.abs()) * (12 - dy.abs())) as f64;
-            for st in &stats {
-                let r = b.range(st.z);
-                let sum_b = r
-                    .filter(|&j| {
-                        let (x, y) = (i64::from(vb.x[j]) - dx, i64::from(vb.y[j]) - dy);
-                        (0..16).contains(&x) && (0..12).contains(&y)
-                    })
-                    .count() as f64;
-                let common = -st.mean_a * (sum_b - st.mean_b * area);
-                expected[l] -= st.weight * common / (area * stats.len() as f64);
+        // The 5 × 5 lags from (0, −1) and from (−3, 1): (2, 1) and its neighbours, and lags
+        // whose partners fall outside the window, right or left, for voxels near its edges.
+        for (origin, side) in [([0i64, -1i64], 5usize), ([-3, 1], 5)] {
+            let lags: Vec<[i64; 2]> = (0..side * side)
+                .map(|c| [origin[0] + (c % side) as i64, origin[1] + (c / side) as i64])
+                .collect();
+            let mut image = Vec::new();
+            let mut expected = vec![0.0; lags.len()];
+            for (some, into) in lags.chunks(4).zip(expected.chunks_mut(4)) {
+                correlations_at((a, b), &stats, shape, some, &mut image, into);
             }
-        }
-        let blocks = Blocks::of(16, 12);
-        let count = blocks.count();
-        let labels: Vec<u32> = (0..16 * 12)
-            .map(|i| blocks.at(i % 16, i / 16) as u32)
-            .collect();
-        let mut out = Vec::new();
-        let lag = |l: usize| lags[l];
-        block_contributions(
-            (a, b),
-            &stats,
-            shape,
-            (&lag, 5),
-            (&labels, count),
-            &mut image,
-            &mut out,
-        );
-        assert!(image.iter().all(|&v| v == 0.0));
-        for (l, e) in expected.iter().enumerate() {
-            let total: f64 = (0..count).map(|k| out[k * 5 + l]).sum();
-            assert!(
-                (total - e).abs() < 1e-9 * (1.0 + e.abs()),
-                "lag {l}: {total} vs {e}"
+            // The part that belongs to no block: −ā Σ (b − b̄) over the overlap, per slice.
+            for (l, &[dx, dy]) in lags.iter().enumerate() {
+                let area = ((16 - dx.abs()) * (12 - dy.abs())) as f64;
+                for st in &stats {
+                    let r = b.range(st.z);
+                    let sum_b = r
+                        .filter(|&j| {
+                            let (x, y) = (i64::from(vb.x[j]) - dx, i64::from(vb.y[j]) - dy);
+                            (0..16).contains(&x) && (0..12).contains(&y)
+                        })
+                        .count() as f64;
+                    let common = -st.mean_a * (sum_b - st.mean_b * area);
+                    expected[l] -= st.weight * common / (area * stats.len() as f64);
+                }
+            }
+            let blocks = Blocks::of(16, 12);
+            let count = blocks.count();
+            let (mut out, mut means) = (Vec::new(), Vec::new());
+            block_contributions(
+                (a, b),
+                &stats,
+                shape,
+                (origin, side),
+                blocks,
+                (&mut image, &mut means),
+                &mut out,
             );
+            assert!(image.iter().all(|&v| v == 0.0));
+            let cells = side * side;
+            for (l, e) in expected.iter().enumerate() {
+                let total: f64 = (0..count).map(|k| out[k * cells + l]).sum();
+                assert!(
+                    (total - e).abs() < 1e-9 * (1.0 + e.abs()),
+                    "lag {l}: {total} vs {e}"
+                );
+            }
         }
     }
 }
