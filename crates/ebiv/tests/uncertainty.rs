@@ -10,6 +10,7 @@ use ebiv::estimate::corrsum::{CorrSumParams, SumOfCorrelation};
 use ebiv::estimate::motion::{ContrastMaximization, MotionParams};
 use ebiv::estimate::Estimator;
 use ebiv::grid::{Grid, GridSpec};
+use ebiv::process::{process_slab, ProcessParams};
 use ebiv::volume::Slab;
 use ebiv::PolaritySelection;
 
@@ -74,16 +75,15 @@ impl Pairs {
     }
 }
 
-/// Simulate a `size`² gen4 scene of a uniform flow and add the (error, σ) of every valid
-/// vector of a single-pass field at 15 ms to `pairs`.
-fn measure<E: Estimator>(
-    est: &E,
+/// A `size`² gen4 scene of a uniform flow `(u, v)` px/ms over 30 ms: the slab of the
+/// positive events `t0 − before .. t0 + after` µs, and the simulation (for its truth).
+fn simulated_slab(
     (u, v): (f64, f64),
     density: f64,
-    (size, window): (u32, u32),
+    size: u32,
     seed: u64,
-    pairs: &mut Pairs,
-) {
+    (t0, before, after): (i64, i64, i64),
+) -> (Slab, ebiv::sim::simulation::Simulation) {
     let text = format!(
         "seed = {seed}\nduration = \"30ms\"\n[sensor]\nwidth = {size}\nheight = {size}\n\
          preset = \"gen4\"\n[flow]\ntype = \"uniform\"\nu = {u}\nv = {v}\n[particles]\n\
@@ -92,8 +92,6 @@ fn measure<E: Estimator>(
     let scenario: ebiv::sim::scenario::Scenario = toml::from_str(&text).unwrap();
     let sim = scenario.simulation().unwrap();
     let events = sim.run(None, &|_| {}).unwrap().events;
-    let t0 = 15_000;
-    let (before, after) = est.time_extent_us();
     let mut columns = (Vec::new(), Vec::new(), Vec::new(), Vec::new());
     for e in events.iter() {
         columns.0.push(e.t);
@@ -113,6 +111,22 @@ fn measure<E: Estimator>(
         PolaritySelection::Positive,
         16,
     );
+    (slab, sim)
+}
+
+/// Simulate a `size`² gen4 scene of a uniform flow and add the (error, σ) of every valid
+/// vector of a single-pass field at 15 ms to `pairs`.
+fn measure<E: Estimator>(
+    est: &E,
+    flow: (f64, f64),
+    density: f64,
+    (size, window): (u32, u32),
+    seed: u64,
+    pairs: &mut Pairs,
+) {
+    let t0 = 15_000;
+    let (before, after) = est.time_extent_us();
+    let (slab, sim) = simulated_slab(flow, density, size, seed, (t0, before, after));
     let grid = Grid::new(&GridSpec::square(window, window), sim.geometry).unwrap();
     let mut scratch = est.scratch([window, window]);
     for i in 0..grid.len() {
@@ -135,6 +149,44 @@ fn measure<E: Estimator>(
             }
         }
     }
+}
+
+/// Default passes (64 then 40 px) with and without the uncertainty give the same vectors
+/// bit for bit; with it, the valid vectors of the last pass carry a σ, without it none does.
+#[test]
+fn turning_the_uncertainty_off_changes_nothing_else() {
+    let (corrsum, motion) = estimators();
+    fn check<E: Estimator>(est: &E, slab: &Slab, geometry: ebiv::Geometry) {
+        let with = ProcessParams {
+            passes: vec![GridSpec::square(64, 32), GridSpec::square(40, 20)],
+            ..ProcessParams::default()
+        };
+        let without = ProcessParams {
+            uncertainty: false,
+            ..with.clone()
+        };
+        let grids = with.grids(geometry).unwrap();
+        let a = process_slab(est, slab, 15_000, &grids, &with).field;
+        let b = process_slab(est, slab, 15_000, &grids, &without).field;
+        let bits = |v: &[f32]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+        assert_eq!(bits(&a.u), bits(&b.u), "{}", est.name());
+        assert_eq!(bits(&a.v), bits(&b.v), "{}", est.name());
+        assert_eq!(a.status, b.status, "{}", est.name());
+        assert!(b.u_unc.iter().chain(&b.v_unc).all(|s| s.is_nan()));
+        let valid = (0..a.len()).filter(|&i| a.status[i].is_valid()).count();
+        let with_sigma = (0..a.len())
+            .filter(|&i| a.status[i].is_valid() && a.u_unc[i].is_finite())
+            .count();
+        assert!(
+            valid > 20 && with_sigma * 50 >= valid * 49,
+            "{}: {with_sigma} of {valid}",
+            est.name()
+        );
+    }
+    let extent = corrsum.time_extent_us().0.max(motion.time_extent_us().0);
+    let (slab, sim) = simulated_slab((1.5, 0.4), 0.008, 192, 3, (15_000, extent, extent));
+    check(&corrsum, &slab, sim.geometry);
+    check(&motion, &slab, sim.geometry);
 }
 
 fn estimators() -> (SumOfCorrelation, ContrastMaximization) {
