@@ -34,6 +34,9 @@ pub struct ProcessBenchArgs {
     /// reported (the recording is simulated once).
     #[arg(long, default_value_t = 3)]
     pub repeat: u32,
+    /// Without the per-vector uncertainty (as `ebiv process --no-uncertainty`).
+    #[arg(long)]
+    pub no_uncertainty: bool,
 }
 
 pub fn run(args: &ProcessBenchArgs) -> Result<(), ebiv::Error> {
@@ -57,6 +60,7 @@ pub fn run(args: &ProcessBenchArgs) -> Result<(), ebiv::Error> {
     );
     let params = ProcessParams {
         passes: vec![GridSpec::square(args.window, args.step)],
+        uncertainty: !args.no_uncertainty,
         ..ProcessParams::default()
     };
     let which = args.method.as_deref();

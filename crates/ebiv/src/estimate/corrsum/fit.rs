@@ -118,6 +118,24 @@ pub(super) fn refine_with_kernel(
     kernel: &SmoothingKernel,
     fit: SubPixelFit,
 ) -> [f64; 2] {
+    match smoothed_block(plane, [width, height], peak, kernel) {
+        None => refine_tilted(plane, width, peak, fit),
+        Some(([r0, c0], smoothed)) => {
+            let local = smoothed.block();
+            let [x, y] = fit_block(&local, fit);
+            [c0 as f64 - 1.0 + x, r0 as f64 - 1.0 + y]
+        }
+    }
+}
+
+/// The smoothed plane's maximum next to `peak` and the 3 × 3 block of smoothed values
+/// around it, which [`refine_with_kernel`] fits; `None` where it does not smooth.
+fn smoothed_block(
+    plane: &[f64],
+    [width, height]: [usize; 2],
+    peak: &Peak,
+    kernel: &SmoothingKernel,
+) -> Option<([isize; 2], Smoothed)> {
     let (w, h) = (width as isize, height as isize);
     let (r0, c0) = (peak.row as isize, peak.col as isize);
     let sigma = kernel.sigma;
@@ -125,7 +143,7 @@ pub(super) fn refine_with_kernel(
     // border: no smoothing there (nor for σ too small to matter, or on small planes).
     let room = r0.min(c0).min(h - 1 - r0).min(w - 1 - c0);
     if sigma.is_nan() || sigma < MIN_SIGMA || peak.on_edge || room < reach(sigma) + BLOCK {
-        return refine_tilted(plane, width, peak, fit);
+        return None;
     }
     let smoothed = Smoothed::around(plane, [w, h], [r0, c0], kernel);
     // The smoothed maximum lies at or next to the plane's (not on the plane's border).
@@ -138,7 +156,7 @@ pub(super) fn refine_with_kernel(
             }
         }
     }
-    let (r1, c1, value) = best;
+    let (r1, c1, _) = best;
     // Usually the plane's maximum stays the smoothed one and its block is the fit's
     // neighbourhood; otherwise the block around the new maximum (every smoothed value
     // depends only on the plane, not on the block it is computed in).
@@ -147,23 +165,91 @@ pub(super) fn refine_with_kernel(
     } else {
         Smoothed::around(plane, [w, h], [r1, c1], kernel)
     };
-    let (r0, c0) = (r1, c1);
-    let mut local = [0.0; 9];
-    for (k, v) in local.iter_mut().enumerate() {
-        *v = smoothed.at(r0 + k as isize / 3 - 1, c0 + k as isize % 3 - 1);
-    }
+    Some(([r1, c1], smoothed))
+}
+
+/// The sub-pixel position, in the coordinates of the 3 × 3 block `local` (centre cell at
+/// (1, 1)), that `fit` finds in it: the three-point fits per axis, refined by the 2-D
+/// Gaussian fit where `fit` is one.
+fn fit_block(local: &[f64; 9], fit: SubPixelFit) -> [f64; 2] {
     let axis = |a: f64, b: f64, c: f64| 1.0 + three_point(a, b, c, fit.per_axis()).unwrap_or(0.0);
     let centre = Peak {
         col: 1,
         row: 1,
         x: axis(local[3], local[4], local[5]),
         y: axis(local[1], local[4], local[7]),
-        value,
+        value: local[4],
         on_edge: false,
         second: f64::NAN,
     };
-    let [x, y] = refine_tilted(&local, 3, &centre, fit);
-    [c0 as f64 - 1.0 + x, r0 as f64 - 1.0 + y]
+    refine_tilted(local, 3, &centre, fit)
+}
+
+/// The first-order response of [`refine_with_kernel`]'s position to each value of the
+/// `width × height` plane `plane` around `peak`: into `gradient[axis]` (one value per plane
+/// cell), so that adding `Δ` to the plane moves the position by about `Σ gradient·Δ` per axis
+/// (the influence of each value; Jaeckel 1972, the infinitesimal jackknife). The fit reads
+/// a 3 × 3 block of values, smoothed or not; its derivatives in them (forward differences)
+/// are spread back over the plane through the smoothing kernel's weights. The block is the
+/// one the fit of `plane` itself reads, so a change large enough to move the maximum to
+/// another cell is not followed.
+pub(super) fn fit_gradient(
+    plane: &[f64],
+    [width, height]: [usize; 2],
+    peak: &Peak,
+    kernel: &SmoothingKernel,
+    fit: SubPixelFit,
+    gradient: &mut [Vec<f64>; 2],
+) {
+    for g in gradient.iter_mut() {
+        g.clear();
+        g.resize(width * height, 0.0);
+    }
+    let smoothed = smoothed_block(plane, [width, height], peak, kernel);
+    let (centre, local) = match &smoothed {
+        Some((centre, s)) => (*centre, s.block()),
+        None if peak.on_edge || peak.row == 0 || peak.col == 0 => return,
+        None if peak.row + 1 >= height || peak.col + 1 >= width => return,
+        None => {
+            let (r0, c0) = (peak.row, peak.col);
+            let block = std::array::from_fn(|k| plane[(r0 + k / 3 - 1) * width + c0 + k % 3 - 1]);
+            ([r0 as isize, c0 as isize], block)
+        }
+    };
+    // ∂position/∂(block value k), forward differences with a step relative to the value
+    // (truncation error of the order of the step, 10⁻⁶ of the value: ample for a σ).
+    let mut partial = [[0.0; 9]; 2];
+    let base = fit_block(&local, fit);
+    for k in 0..9 {
+        let step = 1e-6 * local[k].abs().max(f64::MIN_POSITIVE.sqrt());
+        let mut moved = local;
+        moved[k] += step;
+        let shifted = fit_block(&moved, fit);
+        for axis in 0..2 {
+            partial[axis][k] = (shifted[axis] - base[axis]) / step;
+        }
+    }
+    let [r0, c0] = centre;
+    let taps: &[f64] = match smoothed {
+        Some(_) => &kernel.taps[..2 * reach(kernel.sigma) as usize + 1],
+        None => &[1.0],
+    };
+    let half = (taps.len() / 2) as isize;
+    // Inside the plane every smoothed value is Σ tᵢ tⱼ v / (Σ t)² ([`Smoothed::around`]).
+    let total: f64 = taps.iter().sum();
+    let norm = 1.0 / (total * total);
+    for (k, (du, dv)) in partial[0].iter().zip(&partial[1]).enumerate() {
+        let (rk, ck) = (r0 + k as isize / 3 - 1, c0 + k as isize % 3 - 1);
+        for (i, ti) in taps.iter().enumerate() {
+            for (j, tj) in taps.iter().enumerate() {
+                let (r, c) = (rk + i as isize - half, ck + j as isize - half);
+                let cell = (r * width as isize + c) as usize;
+                let weight = ti * tj * norm;
+                gradient[0][cell] += du * weight;
+                gradient[1][cell] += dv * weight;
+            }
+        }
+    }
 }
 
 /// Half-width of the neighbourhood of the integer maximum `peak` of a `width × height`
@@ -312,5 +398,10 @@ impl Smoothed {
     /// The smoothed value at plane row `r`, column `c` (within the block).
     fn at(&self, r: isize, c: isize) -> f64 {
         self.values[(r - self.origin[0]) as usize][(c - self.origin[1]) as usize]
+    }
+
+    /// The 3 × 3 values, row-major.
+    fn block(&self) -> [f64; 9] {
+        std::array::from_fn(|k| self.values[k / 3][k % 3])
     }
 }
