@@ -82,13 +82,19 @@ pub(super) fn peak_sigma(
     // Only the values the fit reads have a gradient (the 3 × 3 block around the smoothed
     // maximum and the kernel's reach): the blocks' contributions are needed there, and at
     // the peak (their weights), only.
-    let (mut lo, mut hi) = ([reach, reach], [reach, reach]);
+    let (mut lo, mut hi, mut moves) = ([reach, reach], [reach, reach], false);
     for cell in 0..side * side {
         if work.gradient[0][cell] != 0.0 || work.gradient[1][cell] != 0.0 {
             let (c, r) = (cell % side, cell / side);
             lo = [lo[0].min(c), lo[1].min(r)];
             hi = [hi[0].max(c), hi[1].max(r)];
+            moves = true;
         }
+    }
+    // A fit that no change of the plane moves (it fell back to a fixed position) says
+    // nothing about the spread: no σ rather than σ = 0.
+    if !moves || work.gradient.iter().flatten().any(|g| !g.is_finite()) {
+        return [f64::NAN; 2];
     }
     let size = [hi[0] - lo[0] + 1, hi[1] - lo[1] + 1];
     let cells = size[0] * size[1];
