@@ -133,8 +133,8 @@ pub trait Estimator: Sync {
 
     /// Turn off (`skip`) or back on the per-vector uncertainty (`u_unc`, `v_unc`) of the
     /// estimates made with `scratch`; it is on in a new scratch. The passes whose vectors
-    /// only predict the next pass skip it: for sum of correlation it costs more than the
-    /// estimate itself.
+    /// only predict the next pass skip it: for sum of correlation it costs about half as much
+    /// again as the estimate itself (docs/uncertainty.md).
     fn skip_uncertainty(&self, _scratch: &mut Self::Scratch, _skip: bool) {}
 
     /// True if [`Prediction::search_radius`] restricts the search to a lower peak whose

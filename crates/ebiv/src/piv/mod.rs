@@ -229,6 +229,7 @@ pub fn attributes(p: &PivParams, unit: &str) -> Vec<(String, String)> {
             "predictor_smoothing_nodes".to_string(),
             p.predictor_smoothing.to_string(),
         ),
+        ("uncertainty".to_string(), p.uncertainty.to_string()),
         ("validation".to_string(), p.validation.describe(unit)),
         ("replace_final".to_string(), p.replace_final.to_string()),
         (

@@ -186,10 +186,12 @@ mod tests {
     use crate::grid::GridSpec;
     use std::cell::RefCell;
 
-    /// Every window gets `values[k]` at the k-th evaluation; the grids seen are recorded.
+    /// Every window gets `values[k]` at the k-th evaluation; the grids seen, and whether
+    /// each evaluation was asked for the uncertainty, are recorded.
     struct Scripted {
         values: Vec<f32>,
         seen: RefCell<Vec<u32>>,
+        asked: RefCell<Vec<bool>>,
     }
 
     impl PassEvaluator for Scripted {
@@ -197,8 +199,9 @@ mod tests {
             &self,
             grid: &Grid,
             _predictor: Option<&VectorField>,
-            _uncertainty: bool,
+            uncertainty: bool,
         ) -> VectorField {
+            self.asked.borrow_mut().push(uncertainty);
             let mut seen = self.seen.borrow_mut();
             let value = self.values[seen.len()];
             seen.push(grid.window[0]);
@@ -239,9 +242,23 @@ mod tests {
         let scripted = Scripted {
             values: vec![1.0, 2.0, 2.5, 2.505, 9.0],
             seen: RefCell::new(Vec::new()),
+            asked: RefCell::new(Vec::new()),
         };
         let out = run_passes(&scripted, &grids(&[64, 32]), &settings(&validation, false));
         assert_eq!(*scripted.seen.borrow(), vec![64, 32, 32, 32]);
+        // Only the evaluations of the last grid estimate the uncertainty, and none without it.
+        assert_eq!(*scripted.asked.borrow(), vec![false, true, true, true]);
+        let without = Scripted {
+            values: vec![1.0, 2.0, 2.5, 2.505, 9.0],
+            seen: RefCell::new(Vec::new()),
+            asked: RefCell::new(Vec::new()),
+        };
+        let off = MultiPass {
+            uncertainty: false,
+            ..settings(&validation, false)
+        };
+        run_passes(&without, &grids(&[64, 32]), &off);
+        assert!(without.asked.borrow().iter().all(|&a| !a));
         assert_eq!(out.field.u[0], 2.505);
         assert_eq!(out.passes.len(), 2);
         assert_eq!(out.passes[1].iterations, 3);
@@ -255,6 +272,7 @@ mod tests {
         let scripted = || Scripted {
             values: vec![1.0, 2.0, 3.0, 4.0],
             seen: RefCell::new(Vec::new()),
+            asked: RefCell::new(Vec::new()),
         };
         let once = scripted();
         run_passes(&once, &grids(&[32]), &settings(&validation, false));

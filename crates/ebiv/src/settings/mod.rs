@@ -172,8 +172,8 @@ settings! {
         /// their neighbours' median (corrsum, multi-pass runs).
         secondary_peaks: bool = true; "";
         /// Estimate each vector's standard uncertainty `u_unc`, `v_unc` on the last pass
-        /// (docs/uncertainty.md). Off, they are NaN, and sum of correlation runs about twice
-        /// as fast.
+        /// (docs/uncertainty.md). Off, they are NaN, and sum of correlation runs about 1.5
+        /// times as fast.
         uncertainty: bool = true; "";
     }
     group "Validation" {

@@ -15,9 +15,10 @@ use crate::error::{Error, Result};
 use std::path::{Path, PathBuf};
 use toml::{Table, Value};
 
-/// Version of the cell files and of what a cell computes; part of every key with the version
-/// of ebiv ([`CODE_VERSION`]), so that cells of another version are recomputed.
-pub const FORMAT: &str = "ebiv-study-cell-2";
+/// Version of the cell files and of what a cell computes, raised whenever a cell's result
+/// would change (a metric, an estimator, its uncertainty); part of every key with the
+/// version of ebiv ([`CODE_VERSION`]), so that cells of another version are recomputed.
+pub const FORMAT: &str = "ebiv-study-cell-3";
 
 /// The version of ebiv that computes the cells: a study rerun by another version of ebiv
 /// recomputes every cell rather than mix results of two versions.

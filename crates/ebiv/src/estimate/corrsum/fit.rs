@@ -192,7 +192,9 @@ fn fit_block(local: &[f64; 9], fit: SubPixelFit) -> [f64; 2] {
 /// a 3 × 3 block of values, smoothed or not; its derivatives in them (forward differences)
 /// are spread back over the plane through the smoothing kernel's weights. The block is the
 /// one the fit of `plane` itself reads, so a change large enough to move the maximum to
-/// another cell is not followed.
+/// another cell is not followed; where the 2-D Gaussian fit of an unsmoothed block fails,
+/// the gradient is that of the three-point fits, not of the peak's own fall-back. A block
+/// holding an exact zero (where the fits switch form) gets no gradient.
 pub(super) fn fit_gradient(
     plane: &[f64],
     [width, height]: [usize; 2],
@@ -216,6 +218,9 @@ pub(super) fn fit_gradient(
             ([r0 as isize, c0 as isize], block)
         }
     };
+    if local.contains(&0.0) {
+        return;
+    }
     // ∂position/∂(block value k), forward differences with a step relative to the value
     // (truncation error of the order of the step, 10⁻⁶ of the value: ample for a σ).
     let mut partial = [[0.0; 9]; 2];

@@ -202,8 +202,9 @@ fn block_contributions(
                     if !(0..h).contains(&qy) || first >= last {
                         continue;
                     }
-                    let start = (qy * w + x0) as usize;
-                    let partners = &image[start + first..start + last];
+                    // x0 may be negative: the index of the row's first partner in i64.
+                    let start = (qy * w + x0 + first as i64) as usize;
+                    let partners = &image[start..start + (last - first)];
                     for (sum, partner) in lags[first..last].iter_mut().zip(partners) {
                         *sum += c * (partner - s.mean_b);
                     }
@@ -296,6 +297,8 @@ mod tests {
             ([-3, 1], [4, 3]),
             ([-1, -2], [7, 7]),
             ([1, 0], [3, 3]),
+            // Partners left of the window on its top row (a negative row start).
+            ([-3, -3], [7, 7]),
         ] {
             let lags: Vec<[i64; 2]> = (0..side * down)
                 .map(|c| [origin[0] + (c % side) as i64, origin[1] + (c / side) as i64])
