@@ -3,7 +3,7 @@
 //! between |error| and σ, per estimator, pooled over uniform flows, seeding densities,
 //! windows and seeds. Single pass, no predictor, the estimators' default settings.
 //!
-//! `coverage_sweep` (ignored: minutes in release) prints the table of `docs/uncertainty.md`:
+//! `coverage_sweep` (ignored: 15 s in release, minutes in debug) prints the table of `docs/uncertainty.md`:
 //! `cargo test --release -p ebiv --test uncertainty -- --ignored --nocapture`.
 
 use ebiv::estimate::corrsum::{CorrSumParams, SumOfCorrelation};
@@ -227,7 +227,7 @@ fn uncertainty_covers_the_true_errors_of_uniform_flows() {
 /// densities (0.002–0.015 particles/px), 32 and 48 px windows, two seeds, 256 × 256 px;
 /// pooled, then per density.
 #[test]
-#[ignore = "validation sweep, minutes: run with --release -- --ignored --nocapture"]
+#[ignore = "validation sweep printing the docs table (15 s in release, minutes in debug): run with --release -- --ignored --nocapture"]
 fn coverage_sweep() {
     let (corrsum, motion) = estimators();
     let (mut c, mut m) = (Pairs::default(), Pairs::default());

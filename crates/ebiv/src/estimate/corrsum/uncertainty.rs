@@ -22,12 +22,14 @@ use crate::peak::{Peak, SubPixelFit};
 /// Working memory of [`peak_sigma`], reused across windows.
 #[derive(Debug, Clone, Default)]
 pub(super) struct BlockPlanes {
-    /// Per block, the contributions to the neighbourhood of the peak, `side²` values each.
+    /// Per block, the contributions to the rectangle of the neighbourhood where the fit has
+    /// a gradient, row-major.
     contributions: Vec<f64>,
     /// The neighbourhood of the plane.
     local: Vec<f64>,
-    /// The fit's gradient in the neighbourhood's values, per axis.
+    /// The fit's gradient in the neighbourhood's values, per axis, and over the rectangle.
     gradient: [Vec<f64>; 2],
+    slope: [Vec<f64>; 2],
     /// The shifts of the peak with one block taken out.
     estimates: Vec<[f64; 2]>,
     /// Each block's contribution to the peak, its weight.
@@ -115,14 +117,16 @@ pub(super) fn peak_sigma(
         &mut work.contributions,
     );
     // The gradient over the rectangle, row by row as the contributions.
-    let slope = work.gradient.each_ref().map(|g| {
-        (lo[1]..=hi[1])
-            .flat_map(|r| g[r * side + lo[0]..=r * side + hi[0]].iter().copied())
-            .collect::<Vec<f64>>()
-    });
+    for (slope, g) in work.slope.iter_mut().zip(&work.gradient) {
+        slope.clear();
+        for r in lo[1]..=hi[1] {
+            slope.extend_from_slice(&g[r * side + lo[0]..=r * side + hi[0]]);
+        }
+    }
     work.estimates.clear();
     for part in work.contributions.chunks_exact(cells) {
-        let shift = slope
+        let shift = work
+            .slope
             .each_ref()
             .map(|g| -g.iter().zip(part).map(|(g, c)| g * c).sum::<f64>());
         work.estimates.push(shift);
