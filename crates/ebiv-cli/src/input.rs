@@ -1,7 +1,7 @@
 //! Options shared by every command that reads an event file.
 
 use clap::Args;
-use ebiv::io::{Format, RawEncoding, ReadOptions, TextOptions};
+use ebiv::io::{Format, RawEncoding, ReadOptions};
 use ebiv::Geometry;
 
 /// How to read the input file; the defaults suit almost every file.
@@ -38,40 +38,30 @@ pub struct InputArgs {
 impl InputArgs {
     /// The library's read options.
     pub fn read_options(&self) -> Result<ReadOptions, ebiv::Error> {
-        let mut text = TextOptions::default();
-        if let Some(cols) = &self.columns {
-            text.columns = Some(TextOptions::parse_columns(cols)?);
-        }
-        if let Some(unit) = &self.time_unit {
-            text.time_unit = TextOptions::parse_time_unit(unit)?;
-        }
-        if let Some(d) = &self.delimiter {
-            text.delimiter = TextOptions::parse_delimiter(d)?;
-        }
-        if let Some(p) = &self.polarity_values {
-            text.polarity = TextOptions::parse_polarity(p)?;
-        }
-        Ok(ReadOptions {
+        let mut options = ReadOptions {
             geometry: self.geometry,
             raw_encoding: self.raw_encoding,
             metavision_time_shift: self.metavision_time,
             format: self.format,
-            text,
             ..ReadOptions::default()
-        })
+        };
+        let texts = [
+            ("columns", &self.columns),
+            ("time-unit", &self.time_unit),
+            ("delimiter", &self.delimiter),
+            ("polarity-values", &self.polarity_values),
+        ];
+        for (key, text) in texts {
+            if let Some(text) = text {
+                options.set(key, text)?;
+            }
+        }
+        Ok(options)
     }
 }
 
-/// Parse `1280x720`.
-pub fn parse_geometry(s: &str) -> Result<Geometry, String> {
-    let err = || format!("`{s}` is not a size; write WIDTHxHEIGHT, e.g. 1280x720");
-    let (w, h) = s.split_once(['x', 'X']).ok_or_else(err)?;
-    let w: u32 = w.trim().parse().map_err(|_| err())?;
-    let h: u32 = h.trim().parse().map_err(|_| err())?;
-    if w == 0 || h == 0 || w > 65536 || h > 65536 {
-        return Err(format!("`{s}`: width and height must be 1..=65536"));
-    }
-    Ok(Geometry::new(w, h))
+fn parse_geometry(s: &str) -> Result<Geometry, String> {
+    ebiv::io::parse_geometry(s)
 }
 
 fn parse_encoding(s: &str) -> Result<RawEncoding, String> {

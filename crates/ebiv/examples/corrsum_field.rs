@@ -21,7 +21,11 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let run = settings.resolve()?;
     let estimator = SumOfCorrelation::new(run.corrsum)?;
     let options = ebiv::io::ReadOptions::default();
-    let mut plan = run.plan_fields(&options, estimator.time_extent_us(), run.slab_us())?;
+    let mut plan = run.plan_fields(
+        &run.event_source(&options),
+        estimator.time_extent_us(),
+        run.slab_us(),
+    )?;
     let (series, summary) = process_recording(
         &mut plan.reader,
         plan.geometry,

@@ -9,6 +9,15 @@ use crate::error::{Error, Result};
 use crate::event::Geometry;
 use crate::filter::Roi;
 
+/// "64x64 px step 32 -> 40x40 px step 20": the passes' windows and steps, for messages.
+pub fn describe_passes(passes: &[GridSpec]) -> String {
+    passes
+        .iter()
+        .map(|g| format!("{}x{} px step {}", g.window[0], g.window[1], g.step[0]))
+        .collect::<Vec<_>>()
+        .join(" -> ")
+}
+
 /// How to lay interrogation windows over the sensor.
 #[derive(Debug, Clone, PartialEq)]
 pub struct GridSpec {

@@ -140,8 +140,7 @@ fn run_compare(
 /// The truth named on the command line: a ready scenario, a scenario file, or a truth field.
 fn load_truth(args: &AssessArgs) -> Result<Truth, ebiv::Error> {
     if let Some(name) = &args.truth_example {
-        let (scenario, origin) = super::simulate::load_scenario(Some(name), None)?;
-        return Truth::from_scenario(&scenario, &origin);
+        return Truth::from_example(name);
     }
     let Some(path) = &args.truth else {
         return Err(ebiv::Error::parameter(
@@ -150,14 +149,5 @@ fn load_truth(args: &AssessArgs) -> Result<Truth, ebiv::Error> {
              compare with",
         ));
     };
-    let is_toml = path
-        .extension()
-        .and_then(|e| e.to_str())
-        .is_some_and(|e| e.eq_ignore_ascii_case("toml"));
-    if is_toml {
-        let (scenario, origin) = super::simulate::load_scenario(None, Some(path))?;
-        Truth::from_scenario(&scenario, &origin)
-    } else {
-        Truth::from_file(path)
-    }
+    Truth::from_path(path)
 }

@@ -140,18 +140,7 @@ pub fn run(args: &SimulateArgs) -> Result<(), ebiv::Error> {
     );
     if let (Some(path), Some(format)) = (&args.truth, truth_format) {
         crate::interrupt::check(path)?;
-        let end = scenario.start + scenario.duration;
-        let mut field = ebiv::sim::truth::velocity_field(
-            sim.flow.as_ref(),
-            sim.geometry,
-            scenario.truth.grid_step,
-            scenario.start,
-            end,
-            scenario.truth.interval,
-        );
-        field
-            .attributes
-            .push(("flow".into(), scenario.flow.describe()));
+        let field = scenario.truth_field(&sim);
         match format {
             TruthFormat::Csv => ebiv::export::write_field_csv(&field, path)?,
             TruthFormat::NetCdf => ebiv::export::write_field_netcdf(&field, path)?,
@@ -228,27 +217,12 @@ pub fn load_scenario(
     example: Option<&str>,
     path: Option<&Path>,
 ) -> Result<(Scenario, String), ebiv::Error> {
-    let (text, origin) = match (example, path) {
-        (Some(name), _) => (
-            Scenario::example_text(name)?.to_string(),
-            format!("example `{name}`"),
-        ),
-        (None, Some(path)) => (
-            std::fs::read_to_string(path).map_err(|e| ebiv::Error::io(path, e))?,
-            path.display().to_string(),
-        ),
-        (None, None) => {
-            return Err(ebiv::Error::parameter(
-                "scenario",
-                "give a scenario file or --example NAME",
-            ))
-        }
-    };
-    let mut scenario = Scenario::from_toml(&text, &origin)?;
-    if let Some(dir) = path.and_then(Path::parent) {
-        if example.is_none() {
-            scenario.flow = scenario.flow.with_base_dir(dir);
-        }
+    match (example, path) {
+        (Some(name), _) => Ok((Scenario::from_example(name)?, format!("example `{name}`"))),
+        (None, Some(path)) => Ok((Scenario::from_file(path)?, path.display().to_string())),
+        (None, None) => Err(ebiv::Error::parameter(
+            "scenario",
+            "give a scenario file or --example NAME",
+        )),
     }
-    Ok((scenario, origin))
 }

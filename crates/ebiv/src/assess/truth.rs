@@ -23,6 +23,26 @@ impl Truth {
         })
     }
 
+    /// The truth in the file at `path`: a scenario (`.toml`), whose flow is evaluated
+    /// exactly, or else a truth field ([`Truth::from_file`]).
+    pub fn from_path(path: &Path) -> Result<Truth> {
+        let is_toml = path
+            .extension()
+            .and_then(|e| e.to_str())
+            .is_some_and(|e| e.eq_ignore_ascii_case("toml"));
+        if is_toml {
+            let scenario = Scenario::from_file(path)?;
+            Truth::from_scenario(&scenario, &path.display().to_string())
+        } else {
+            Truth::from_file(path)
+        }
+    }
+
+    /// The flow of the ready scenario `name` (as `ebiv simulate --example NAME` runs it).
+    pub fn from_example(name: &str) -> Result<Truth> {
+        Truth::from_scenario(&Scenario::from_example(name)?, &format!("example `{name}`"))
+    }
+
     /// A truth field file as `ebiv simulate --truth` writes it (NetCDF or CSV; see
     /// [`GriddedFlow::open`]). Outside the file's grid and times the velocity is that of the
     /// nearest edge node or field.

@@ -22,7 +22,9 @@ mod tecplot;
 mod vtk;
 
 pub use self::csv::{csv_header, write_field_csv, CSV_HEADER};
-pub use self::netcdf::write_field_netcdf;
+pub use self::netcdf::{
+    netcdf_dataset, write_dataset_netcdf, write_field_netcdf, Attribute, Dataset, Values, Variable,
+};
 pub use self::npz::write_field_npz;
 pub use self::tecplot::{write_field_tecplot, TECPLOT_MISSING};
 pub use self::vtk::{vtk_series_paths, write_field_vtk};

@@ -58,59 +58,194 @@ pub(crate) const OWN_GLOBALS: [&str; 10] = [
 /// stands for the zero of the recording's clock (see the module documentation).
 pub const TIME_UNITS: &str = "microseconds since 1970-01-01 00:00:00";
 
-/// Write `field` to `path` as NetCDF-3 (64-bit offset), through a temporary file.
-///
-/// The status flags are stored as `short` (NetCDF-3 has no unsigned byte, and bit 7 is
-/// used) with CF `flag_masks`/`flag_meanings`. `event_count` and `slab_us` are stored as
-/// `int` (NetCDF-3 has no unsigned int); a value above `i32::MAX` (for `slab_us`, 35 minutes)
-/// is an error rather than a silently clipped one. `slab_us` has the units `us`, which UDUNITS
-/// reads as microseconds and xarray leaves as integers (`microseconds` would make xarray
-/// decode it to time deltas).
+/// Write `field` to `path` as NetCDF-3 (64-bit offset), through a temporary file: the
+/// variables and attributes of [`netcdf_dataset`].
 pub fn write_field_netcdf(field: &FieldSeries, path: &Path) -> Result<()> {
-    check(field)?;
+    let dataset = netcdf_dataset(field).map_err(|m| nc_err(path, m))?;
+    write_dataset_netcdf(&dataset, path)
+}
+
+/// Write `dataset` to `path` as NetCDF-3 (64-bit offset), through a temporary file.
+pub fn write_dataset_netcdf(dataset: &Dataset, path: &Path) -> Result<()> {
+    let err = |e: netcdf3::error::InvalidDataSet| nc_err(path, e);
+    let mut ds = DataSet::new();
+    for (name, len) in &dataset.dims {
+        ds.add_fixed_dim(name, *len).map_err(err)?;
+    }
+    for var in &dataset.variables {
+        let dims = &var.dims;
+        match &var.values {
+            Values::F64(_) => ds.add_var_f64(&var.name, dims),
+            Values::F32(_) => ds.add_var_f32(&var.name, dims),
+            Values::I16(_) => ds.add_var_i16(&var.name, dims),
+            Values::I32(_) => ds.add_var_i32(&var.name, dims),
+        }
+        .map_err(err)?;
+        for (key, value) in &var.attributes {
+            match value {
+                Attribute::Text(text) => ds.add_var_attr_string(&var.name, key, text),
+                Attribute::F64(v) => ds.add_var_attr_f64(&var.name, key, v.clone()),
+                Attribute::I16(v) => ds.add_var_attr_i16(&var.name, key, v.clone()),
+            }
+            .map_err(err)?;
+        }
+    }
+    for (key, value) in &dataset.attributes {
+        match value {
+            Attribute::Text(text) => ds.add_global_attr_string(key, text),
+            Attribute::F64(v) => ds.add_global_attr_f64(key, v.clone()),
+            Attribute::I16(v) => ds.add_global_attr_i16(key, v.clone()),
+        }
+        .map_err(err)?;
+    }
+    let temp = partial_path(path);
+    let werr = |e: netcdf3::error::WriteError| nc_err(path, e);
+    let result = (|| {
+        let mut w = FileWriter::open(&temp).map_err(werr)?;
+        w.set_def(&ds, Version::Offset64Bit, 0).map_err(werr)?;
+        for var in &dataset.variables {
+            match &var.values {
+                Values::F64(v) => w.write_var_f64(&var.name, v),
+                Values::F32(v) => w.write_var_f32(&var.name, v),
+                Values::I16(v) => w.write_var_i16(&var.name, v),
+                Values::I32(v) => w.write_var_i32(&var.name, v),
+            }
+            .map_err(werr)?;
+        }
+        w.close().map_err(werr)
+    })();
+    if let Err(e) = result {
+        let _ = std::fs::remove_file(&temp);
+        return Err(e);
+    }
+    std::fs::rename(&temp, path).map_err(|e| Error::io(path, e))
+}
+
+/// The values of one variable, in the NetCDF type they are stored as.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Values {
+    /// `double`.
+    F64(Vec<f64>),
+    /// `float`.
+    F32(Vec<f32>),
+    /// `short`.
+    I16(Vec<i16>),
+    /// `int`.
+    I32(Vec<i32>),
+}
+
+/// The value of an attribute.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Attribute {
+    /// Text.
+    Text(String),
+    /// `double` values.
+    F64(Vec<f64>),
+    /// `short` values.
+    I16(Vec<i16>),
+}
+
+/// One variable of a [`Dataset`]: its values in row-major order over `dims`.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Variable {
+    /// The variable's name.
+    pub name: String,
+    /// Its dimensions, slowest first.
+    pub dims: Vec<String>,
+    /// Its values.
+    pub values: Values,
+    /// Its attributes, in the file's order.
+    pub attributes: Vec<(String, Attribute)>,
+}
+
+/// Everything the NetCDF file of a series holds, before it is encoded: what the writer
+/// writes, and what the Python package turns into an `xarray.Dataset`, so that the two
+/// have the same variables, attributes and units.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Dataset {
+    /// Dimensions and their lengths.
+    pub dims: Vec<(String, usize)>,
+    /// Coordinate variables first, then data variables.
+    pub variables: Vec<Variable>,
+    /// Global attributes.
+    pub attributes: Vec<(String, Attribute)>,
+}
+
+/// The NetCDF dataset of `field` (see the module documentation); an error message when a
+/// value does not fit the file's types.
+pub fn netcdf_dataset(field: &FieldSeries) -> std::result::Result<Dataset, String> {
+    check(field).map_err(|e| e.to_string())?;
     let (nt, ny, nx) = (field.t_us.len(), field.y.len(), field.x.len());
     let event_count: Vec<i32> = field
         .event_count
         .iter()
         .map(|&c| i32::try_from(c))
         .collect::<Result<_, _>>()
-        .map_err(|_| nc_err(path, "an event count exceeds the NetCDF int range"))?;
+        .map_err(|_| "an event count exceeds the NetCDF int range")?;
     let slab_us: Vec<i32> = field
         .slab_us
         .iter()
         .map(|&c| i32::try_from(c))
         .collect::<Result<_, _>>()
-        .map_err(|_| nc_err(path, "a slab length (slab_us) exceeds the NetCDF int range"))?;
-    let status: Vec<i16> = field.status.iter().map(|s| s.0 as i16).collect();
+        .map_err(|_| "a slab length (slab_us) exceeds the NetCDF int range")?;
     let written = Written::new(field);
     let calibrated = field.calibration.is_some();
-
-    let err = |e: netcdf3::error::InvalidDataSet| nc_err(path, e);
-    let mut ds = DataSet::new();
-    ds.add_fixed_dim("time", nt).map_err(err)?;
-    ds.add_fixed_dim("y", ny).map_err(err)?;
-    ds.add_fixed_dim("x", nx).map_err(err)?;
-    ds.add_var_f64("time", &["time"]).map_err(err)?;
-    ds.add_var_f64("y", &["y"]).map_err(err)?;
-    ds.add_var_f64("x", &["x"]).map_err(err)?;
-    if calibrated {
-        ds.add_var_f64("y_px", &["y"]).map_err(err)?;
-        ds.add_var_f64("x_px", &["x"]).map_err(err)?;
-    }
-    let grid = ["time", "y", "x"];
-    ds.add_var_f32("u", &grid).map_err(err)?;
-    ds.add_var_f32("v", &grid).map_err(err)?;
     let quality = !field.ground_truth;
-    if quality {
-        ds.add_var_f32("u_unc", &grid).map_err(err)?;
-        ds.add_var_f32("v_unc", &grid).map_err(err)?;
-        ds.add_var_i16("status", &grid).map_err(err)?;
-        ds.add_var_f32("peak", &grid).map_err(err)?;
-        ds.add_var_f32("peak_ratio", &grid).map_err(err)?;
-        ds.add_var_i32("event_count", &grid).map_err(err)?;
-        ds.add_var_i32("slab_us", &grid).map_err(err)?;
+    let grid = || vec!["time", "y", "x"];
+    let mut variables = vec![
+        variable(
+            "time",
+            vec!["time"],
+            Values::F64(field.t_us.iter().map(|&t| t as f64).collect()),
+        ),
+        variable("y", vec!["y"], Values::F64(written.y.to_vec())),
+        variable("x", vec!["x"], Values::F64(written.x.to_vec())),
+    ];
+    if calibrated {
+        variables.push(variable("y_px", vec!["y"], Values::F64(field.y.clone())));
+        variables.push(variable("x_px", vec!["x"], Values::F64(field.x.clone())));
     }
+    variables.push(variable("u", grid(), Values::F32(written.u.to_vec())));
+    variables.push(variable("v", grid(), Values::F32(written.v.to_vec())));
+    if quality {
+        let status = field.status.iter().map(|s| s.0 as i16).collect();
+        variables.extend([
+            variable("u_unc", grid(), Values::F32(written.u_unc.to_vec())),
+            variable("v_unc", grid(), Values::F32(written.v_unc.to_vec())),
+            variable("status", grid(), Values::I16(status)),
+            variable("peak", grid(), Values::F32(field.peak.clone())),
+            variable("peak_ratio", grid(), Values::F32(field.peak_ratio.clone())),
+            variable("event_count", grid(), Values::I32(event_count)),
+            variable("slab_us", grid(), Values::I32(slab_us)),
+        ]);
+    }
+    for (var, key, value) in variable_attributes(field) {
+        let v = variables
+            .iter_mut()
+            .find(|v| v.name == var)
+            .expect("attributes name variables of the dataset");
+        v.attributes.push((key.into(), value));
+    }
+    Ok(Dataset {
+        dims: vec![("time".into(), nt), ("y".into(), ny), ("x".into(), nx)],
+        variables,
+        attributes: global_attributes(field),
+    })
+}
 
+fn variable(name: &str, dims: Vec<&str>, values: Values) -> Variable {
+    Variable {
+        name: name.into(),
+        dims: dims.into_iter().map(String::from).collect(),
+        values,
+        attributes: Vec::new(),
+    }
+}
+
+/// `(variable, key, value)` of every variable attribute, in the file's order.
+fn variable_attributes(field: &FieldSeries) -> Vec<(&'static str, &'static str, Attribute)> {
+    let calibrated = field.calibration.is_some();
+    let quality = !field.ground_truth;
     let displacement = field.quantity == crate::field::Quantity::Displacement;
     let (length, velocity) = match (calibrated, displacement) {
         (true, false) => ("mm", "m/s"),
@@ -268,17 +403,21 @@ pub fn write_field_netcdf(field: &FieldSeries, path: &Path) -> Result<()> {
             ));
         }
     }
-    for (var, key, value) in &text_attrs {
-        ds.add_var_attr_string(var, key, value).map_err(err)?;
-    }
+    let mut attributes: Vec<(&str, &str, Attribute)> = text_attrs
+        .into_iter()
+        .map(|(var, key, value)| (var, key, Attribute::Text(value)))
+        .collect();
     if quality {
         let masks: Vec<i16> = Status::NAMES.iter().map(|(_, s)| s.0 as i16).collect();
-        ds.add_var_attr_i16("status", "flag_masks", masks)
-            .map_err(err)?;
-        ds.add_var_attr_i16("status", "valid_range", vec![0, 255])
-            .map_err(err)?;
+        attributes.push(("status", "flag_masks", Attribute::I16(masks)));
+        attributes.push(("status", "valid_range", Attribute::I16(vec![0, 255])));
     }
+    attributes
+}
 
+/// The global attributes, in the file's order: the writer's own, then the series'.
+fn global_attributes(field: &FieldSeries) -> Vec<(String, Attribute)> {
+    let quality = !field.ground_truth;
     let title = if field.ground_truth {
         "ebiv ground-truth velocity field series"
     } else {
@@ -294,20 +433,20 @@ pub fn write_field_netcdf(field: &FieldSeries, path: &Path) -> Result<()> {
     if quality {
         own.push(("status_flags", Status::legend()));
     }
-    for (key, value) in &own {
-        ds.add_global_attr_string(key, value).map_err(err)?;
-    }
+    let mut attributes: Vec<(String, Attribute)> = own
+        .iter()
+        .map(|(key, value)| (key.to_string(), Attribute::Text(value.clone())))
+        .collect();
     if let Some(origin) = field.time_origin_us {
-        ds.add_global_attr_f64("time_origin_us", vec![origin as f64])
-            .map_err(err)?;
+        attributes.push(("time_origin_us".into(), Attribute::F64(vec![origin as f64])));
     }
     if let Some(c) = &field.calibration {
-        ds.add_global_attr_f64("mm_per_px", vec![c.mm_per_px])
-            .map_err(err)?;
-        ds.add_global_attr_f64("origin_px", c.origin_px.to_vec())
-            .map_err(err)?;
-        ds.add_global_attr_string("y_positive", y_positive)
-            .map_err(err)?;
+        let y_positive = if c.y_up { "up" } else { "down" };
+        attributes.extend([
+            ("mm_per_px".into(), Attribute::F64(vec![c.mm_per_px])),
+            ("origin_px".into(), Attribute::F64(c.origin_px.to_vec())),
+            ("y_positive".into(), Attribute::Text(y_positive.into())),
+        ]);
     }
     for (k, v) in &field.attributes {
         let mut key = sanitize_name(k);
@@ -319,45 +458,13 @@ pub fn write_field_netcdf(field: &FieldSeries, path: &Path) -> Result<()> {
         }
         let base = key.clone();
         let mut i = 2;
-        while ds.has_global_attr(&key) {
+        while attributes.iter().any(|(k, _)| *k == key) {
             key = format!("{base}_{i}");
             i += 1;
         }
-        ds.add_global_attr_string(&key, v).map_err(err)?;
+        attributes.push((key, Attribute::Text(v.clone())));
     }
-
-    let temp = partial_path(path);
-    let times: Vec<f64> = field.t_us.iter().map(|&t| t as f64).collect();
-    let werr = |e: netcdf3::error::WriteError| nc_err(path, e);
-    let result = (|| {
-        let mut w = FileWriter::open(&temp).map_err(werr)?;
-        w.set_def(&ds, Version::Offset64Bit, 0).map_err(werr)?;
-        w.write_var_f64("time", &times).map_err(werr)?;
-        w.write_var_f64("y", &written.y).map_err(werr)?;
-        w.write_var_f64("x", &written.x).map_err(werr)?;
-        if calibrated {
-            w.write_var_f64("y_px", &field.y).map_err(werr)?;
-            w.write_var_f64("x_px", &field.x).map_err(werr)?;
-        }
-        w.write_var_f32("u", &written.u).map_err(werr)?;
-        w.write_var_f32("v", &written.v).map_err(werr)?;
-        if quality {
-            w.write_var_f32("u_unc", &written.u_unc).map_err(werr)?;
-            w.write_var_f32("v_unc", &written.v_unc).map_err(werr)?;
-            w.write_var_i16("status", &status).map_err(werr)?;
-            w.write_var_f32("peak", &field.peak).map_err(werr)?;
-            w.write_var_f32("peak_ratio", &field.peak_ratio)
-                .map_err(werr)?;
-            w.write_var_i32("event_count", &event_count).map_err(werr)?;
-            w.write_var_i32("slab_us", &slab_us).map_err(werr)?;
-        }
-        w.close().map_err(werr)
-    })();
-    if let Err(e) = result {
-        let _ = std::fs::remove_file(&temp);
-        return Err(e);
-    }
-    std::fs::rename(&temp, path).map_err(|e| Error::io(path, e))
+    attributes
 }
 
 #[cfg(test)]

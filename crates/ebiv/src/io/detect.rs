@@ -35,6 +35,8 @@ pub enum Format {
     Npz,
     /// The EBIV authors' `.evt` format (64-byte header, 8-byte records).
     EbivEvt,
+    /// Events handed over in memory ([`super::open_events`]), not read from a file.
+    Memory,
 }
 
 impl Format {
@@ -54,6 +56,7 @@ impl Format {
             Format::Npy => "NumPy .npy",
             Format::Npz => "NumPy .npz",
             Format::EbivEvt => "EBIV .evt",
+            Format::Memory => "events in memory",
         }
     }
 

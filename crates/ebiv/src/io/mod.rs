@@ -16,20 +16,26 @@ mod evt2;
 mod evt21;
 mod evt3;
 pub mod field;
+mod memory;
 mod npy;
 mod npz;
+mod options;
 mod prophesee_header;
 mod raw;
 mod reader;
 mod report;
+mod source;
 mod text;
 mod time32;
 pub mod write;
 
 pub use detect::{detect_format, Format};
+pub use memory::open_events;
+pub use options::{parse_geometry, READ_OPTIONS};
 pub use prophesee_header::{Evt21Order, PropheseeHeader, RawEncoding};
 pub use reader::{EventReader, Recording};
 pub use report::DecodeReport;
+pub use source::EventSource;
 pub use text::{PolarityEncoding, TextColumn, TextOptions, TimeUnit};
 
 use crate::error::{Error, Result};
@@ -210,6 +216,14 @@ pub fn open_source(
         Format::Npy => npy::open(source, ctx, options)?,
         Format::Npz => npz::open(source, ctx, options)?,
         Format::EbivEvt => ebiv_evt::open(source, ctx, options)?,
+        Format::Memory => {
+            return Err(Error::parameter(
+                "format",
+                format!(
+                "{ctx}: events in memory are opened with `io::open_events`, not read from bytes"
+            ),
+            ))
+        }
     };
     Ok(EventReader::new(inner, options.metavision_time_shift))
 }

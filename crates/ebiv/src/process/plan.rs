@@ -5,7 +5,7 @@ use super::stream::{scan_extent, RecordingExtent};
 use super::times::{FieldTimes, TimeSteps};
 use crate::error::{Error, Result};
 use crate::event::{EventBuffer, Geometry, PolaritySelection};
-use crate::io::{EventReader, ReadOptions};
+use crate::io::{EventReader, EventSource, ReadOptions};
 use std::path::Path;
 
 /// Most field times one run may ask for.
@@ -14,14 +14,7 @@ pub const MAX_FIELDS: usize = 1_000_000;
 /// Time stamp of the first event of `path` in file order (the origin of every command's
 /// relative times), decoding only as far as that event; `None` for a file without events.
 pub fn first_event_time(path: &Path, options: &ReadOptions) -> Result<Option<i64>> {
-    let mut reader = crate::io::open(path, options)?;
-    let mut batch = EventBuffer::new();
-    while reader.read_batch(&mut batch)? {
-        if let Some(&t) = batch.t.first() {
-            return Ok(Some(t));
-        }
-    }
-    Ok(None)
+    EventSource::file(path, options).first_event_time()
 }
 
 /// A recording opened for a run, with its sensor size and the field times to evaluate.
@@ -59,32 +52,31 @@ impl PlannedFields {
     }
 }
 
-/// Open `path` and resolve its field times: `time` (relative to the first event unless
+/// Open `source` and resolve its field times: `time` (relative to the first event unless
 /// `absolute_time`), or every field that fits, given that a field needs `before` µs of
 /// events before its centre and `after` µs after it, one every `default_step` µs. The whole
 /// recording is read only for what its header does not say: the sensor size, or where the
 /// fields that fit begin and end.
 pub fn plan_fields(
-    path: &Path,
-    options: &ReadOptions,
+    source: &EventSource,
     time: Option<FieldTimes>,
     absolute_time: bool,
     (before, after): (i64, i64),
     default_step: i64,
 ) -> Result<PlannedFields> {
-    let reader = crate::io::open(path, options)?;
+    let reader = source.open()?;
     let header_geometry = reader.metadata().geometry;
-    let no_events = || Error::empty(path.display().to_string(), "the file holds no events");
+    let no_events = || Error::empty(source.name(), "the file holds no events");
     let (start, end) = (time.and_then(|t| t.start), time.and_then(|t| t.end));
     let scanned = header_geometry.is_none() || start.is_none() || end.is_none();
     let extent = if scanned {
-        let mut scan = crate::io::open(path, options)?;
+        let mut scan = source.open()?;
         scan_extent(&mut scan)?.ok_or_else(no_events)?
     } else {
         let first_us = if absolute_time {
             0
         } else {
-            first_event_time(path, options)?.ok_or_else(no_events)?
+            source.first_event_time()?.ok_or_else(no_events)?
         };
         RecordingExtent {
             first_in_file_us: first_us,
@@ -97,7 +89,7 @@ pub fn plan_fields(
     };
     let too_short = || {
         Error::empty(
-            path.display().to_string(),
+            source.name(),
             format!(
                 "the recording ({}) is shorter than the time one field needs ({}: the slab, and for corrsum the delay tau); use a shorter --slab (piv: --frame-step, --exposure, --pairs)",
                 crate::units::format_us(extent.last_us + 1 - extent.first_us),
@@ -314,15 +306,28 @@ mod tests {
         for geometry in [true, false] {
             let path = recording(dir.path(), geometry);
             let o = ReadOptions::default();
-            let err = plan_fields(&path, &o, None, false, (6000, 6000), 12_000)
-                .err()
-                .unwrap()
-                .to_string();
+            let err = plan_fields(
+                &EventSource::file(&path, &o),
+                None,
+                false,
+                (6000, 6000),
+                12_000,
+            )
+            .err()
+            .unwrap()
+            .to_string();
             assert!(
                 err.contains("shorter than the time one field needs"),
                 "{err}"
             );
-            let planned = plan_fields(&path, &o, None, false, (2000, 2000), 4000).unwrap();
+            let planned = plan_fields(
+                &EventSource::file(&path, &o),
+                None,
+                false,
+                (2000, 2000),
+                4000,
+            )
+            .unwrap();
             assert_eq!(planned.times, [1_002_000, 1_006_000]);
             assert_eq!(planned.time_origin_us, 1_000_000);
             let text = planned.describe_times();

@@ -12,12 +12,14 @@
 mod checks;
 mod memory;
 mod resolve;
+mod run;
 mod table;
 mod value;
 
 pub use crate::process::FieldTimes;
 pub use memory::{spread_field_times, TimesFor};
 pub use resolve::{EstimatorTask, Resolved, Source};
+pub use run::{describe_piv, Measurement, RunObserver, RunPlan};
 pub use table::{find, template, Setting};
 pub use value::{Duration, Kind, PixelList, Point, SettingValue, SlabLength, TextList};
 

@@ -12,7 +12,7 @@ use crate::event::Geometry;
 use crate::field::Calibration;
 use crate::frame::events::FrameSpec;
 use crate::grid::{GridSpec, Mask};
-use crate::io::ReadOptions;
+use crate::io::{EventSource, ReadOptions};
 use crate::piv::PivParams;
 use crate::process::{plan_fields, Method, PlannedFields, ProcessParams};
 use crate::validate::ValidationParams;
@@ -99,18 +99,22 @@ impl Resolved {
         }
     }
 
-    /// Open the recording and plan its field times ([`plan_fields`]) for a method whose
-    /// fields need `extent_us` = (before, after) µs of events around their times, one every
+    /// The recording as a source of events, read with `options`.
+    pub fn event_source(&self, options: &ReadOptions) -> EventSource {
+        EventSource::file(self.input_path(), options)
+    }
+
+    /// Open `source` and plan its field times ([`plan_fields`]) for a method whose fields
+    /// need `extent_us` = (before, after) µs of events around their times, one every
     /// `default_step` µs unless `time` says otherwise.
     pub fn plan_fields(
         &self,
-        options: &ReadOptions,
+        source: &EventSource,
         extent_us: (i64, i64),
         default_step: i64,
     ) -> Result<PlannedFields> {
         plan_fields(
-            &self.input_path(),
-            options,
+            source,
             self.time,
             self.absolute_time,
             extent_us,

@@ -324,6 +324,17 @@ impl Scenario {
         })
     }
 
+    /// Read the scenario file at `path`; files its flow names (measured fields) are found
+    /// beside it.
+    pub fn from_file(path: &std::path::Path) -> Result<Scenario> {
+        let text = std::fs::read_to_string(path).map_err(|e| Error::io(path, e))?;
+        let mut scenario = Scenario::from_toml(&text, &path.display().to_string())?;
+        if let Some(dir) = path.parent() {
+            scenario.flow = scenario.flow.with_base_dir(dir);
+        }
+        Ok(scenario)
+    }
+
     /// The ready scenario `name` ([`EXAMPLES`]), to run as it is or to change.
     pub fn from_example(name: &str) -> Result<Scenario> {
         Scenario::from_toml(Scenario::example_text(name)?, &format!("example `{name}`"))
@@ -386,6 +397,21 @@ impl Scenario {
         };
         sim.validate()?;
         Ok(sim)
+    }
+
+    /// The true velocity field of `sim` (this scenario's simulation) on the scenario's
+    /// truth grid and interval, its flow described in the attribute `flow`.
+    pub fn truth_field(&self, sim: &Simulation) -> crate::field::FieldSeries {
+        let mut field = super::truth::velocity_field(
+            sim.flow.as_ref(),
+            sim.geometry,
+            self.truth.grid_step,
+            self.start,
+            self.start + self.duration,
+            self.truth.interval,
+        );
+        field.attributes.push(("flow".into(), self.flow.describe()));
+        field
     }
 }
 

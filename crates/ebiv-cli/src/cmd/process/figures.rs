@@ -3,7 +3,6 @@
 
 use crate::progress::count_bar;
 use ebiv::field::{FieldSeries, Quantity};
-use ebiv::grid::GridSpec;
 use ebiv::process::{FieldDone, Method, RunSummary};
 use ebiv::render::{
     save_png, time_coded_image, valid_components, vector_map, velocity_histograms, write_gif,
@@ -69,8 +68,7 @@ impl<'a> FieldProgress<'a> {
     }
 }
 
-/// After a run over a recording: report dropped input, attach calibration and source,
-/// write the series and print the summary line (vectors, valid share, time, throughput).
+/// After a run over a recording: report dropped input, write the series and print the summary line (vectors, valid share, time, throughput).
 pub fn finish_recording_run(
     run: &Resolved,
     series: &mut FieldSeries,
@@ -80,10 +78,6 @@ pub fn finish_recording_run(
 ) -> Result<(), Error> {
     let seconds = started.elapsed().as_secs_f64();
     crate::cmd::print_report_summary(report);
-    series.calibration = run.calibration;
-    series
-        .attributes
-        .push(("source".into(), run.input_path().display().to_string()));
     ebiv::export::write_field(series, &run.output)?;
     let secondary = match summary.secondary_peaks {
         0 => String::new(),
@@ -121,15 +115,6 @@ pub fn print_invalid_flags(series: &FieldSeries) {
     if !counts.is_empty() {
         println!("invalid vectors by flag: {}", counts.join(", "));
     }
-}
-
-/// "64x64 px step 32 -> 40x40 px step 20".
-pub fn describe_passes(passes: &[GridSpec]) -> String {
-    passes
-        .iter()
-        .map(|g| format!("{}x{} px step {}", g.window[0], g.window[1], g.step[0]))
-        .collect::<Vec<_>>()
-        .join(" -> ")
 }
 
 /// The style of the vector maps of a run: `title`, velocities or displacements in `units`,

@@ -10,7 +10,8 @@ mod figures;
 mod flags;
 mod piv;
 
-pub use figures::{describe_passes, series_histograms};
+pub use ebiv::grid::describe_passes;
+pub use figures::series_histograms;
 
 use crate::input::InputArgs;
 use clap::Args;
@@ -52,50 +53,9 @@ pub fn run(args: &ProcessArgs) -> Result<(), ebiv::Error> {
     // (it is written whole at the end, or not at all), and every figure on disk is complete.
     let _catch = crate::interrupt::catch();
     match (run.method, &run.source) {
-        (Method::CorrSum | Method::Motion, _) => run.with_event_estimator(events::Run {
-            run: &run,
-            options: &options,
-        })?,
         (Method::Piv, Source::Images(_)) => piv::run_images(&run),
-        (Method::Piv | Method::Pulsed, _) => piv::run_events(&run, &options),
+        _ => events::run(&run, &options),
     }
-}
-
-/// After a run over a recording, before anything is written: an error when no field held an
-/// event of the selected polarity (a `--time` beyond the recording, or a polarity the camera
-/// did not record), a warning when some fields were empty or no vector is valid.
-fn check_run_found_events(
-    run: &ebiv::settings::Resolved,
-    summary: &ebiv::process::RunSummary,
-    described_times: &str,
-    polarity: ebiv::PolaritySelection,
-) -> Result<(), ebiv::Error> {
-    let input = run.input_path();
-    let polarity = match polarity {
-        ebiv::PolaritySelection::Both => "either polarity".to_string(),
-        p => format!("{} polarity", format!("{p:?}").to_lowercase()),
-    };
-    if summary.fields > 0 && summary.empty_fields == summary.fields {
-        return Err(ebiv::Error::empty(
-            input.display().to_string(),
-            format!(
-                "no event of {polarity} in any field's time interval ({described_times}), so no field file is written. `ebiv info {}` shows the recording's span and polarities: check --time and --polarity",
-                input.display()
-            ),
-        ));
-    }
-    if summary.empty_fields > 0 {
-        eprintln!(
-            "warning: {} of {} field(s) had no event of {polarity} in their time interval; their vectors are gaps (check --time against the recording's span from `ebiv info`)",
-            summary.empty_fields, summary.fields
-        );
-    }
-    if summary.vectors > 0 && summary.valid == 0 {
-        eprintln!(
-            "warning: no vector is valid. Look at the events (`ebiv render`) and see Troubleshooting in the README: too few particles per window (larger --window), a --slab too short for the particles to move a pixel or so long they leave the window, or --max-velocity too low"
-        );
-    }
-    Ok(())
 }
 
 /// Write a commented configuration file for `ebiv process --config`.

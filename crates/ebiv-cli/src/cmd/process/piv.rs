@@ -1,19 +1,10 @@
-//! `ebiv process --method piv|pulsed`: cross-correlation PIV of image pairs, of frames rebuilt
-//! from an event recording, or of one frame per light pulse (pulsed EBIV).
+//! `ebiv process --method piv --images …`: cross-correlation PIV of image pairs. PIV of
+//! frames rebuilt from a recording runs with the event methods ([`super::events`]).
 
-use super::figures::{
-    describe_passes, finish_recording_run, series_histograms, vector_style, write_series_figures,
-    FieldProgress, MAX_GIF_FRAMES,
-};
+use super::figures::{series_histograms, vector_style, MAX_GIF_FRAMES};
 use crate::progress::count_bar;
 use ebiv::field::Quantity;
-use ebiv::frame::pulse::PulseSource;
-use ebiv::io::ReadOptions;
-use ebiv::piv::images::{
-    image_folder, image_pairs, load_images, piv_image_series, scaled_params, ImageSeriesParams,
-};
-use ebiv::piv::{piv_events, EventPivParams, FrameClock, PivParams};
-use ebiv::process::{first_event_time, Method, PlannedFields};
+use ebiv::piv::images::{image_folder, image_pairs, load_images, piv_image_series, scaled_params};
 use ebiv::render::{frame_image, save_png, vector_map, write_gif};
 use ebiv::settings::{Resolved, Source};
 use ebiv::Error;
@@ -32,16 +23,7 @@ pub fn run_images(run: &Resolved) -> Result<(), Error> {
     bar.finish_and_clear();
     crate::interrupt::check(&run.output)?;
     let g = frames[0].geometry();
-    let mut params = ImageSeriesParams {
-        piv: run.piv.clone(),
-        sequence: run.sequence,
-        ensemble: run.ensemble,
-        dt_us: run.dt_us,
-    };
-    params.piv.mask = run.mask_for(g)?;
-    for pass in &params.piv.passes {
-        ebiv::grid::Grid::new(pass, g)?;
-    }
+    let params = run.image_series_params(g)?;
     let (fields, per_field) = if run.ensemble {
         (1, pairs.len())
     } else {
@@ -51,7 +33,7 @@ pub fn run_images(run: &Resolved) -> Result<(), Error> {
         "{} image(s) of {g} from {}: {fields} field(s) of {per_field} pair(s) each, passes {}",
         paths.len(),
         image_folder(&paths),
-        describe(&scaled_params(&params))
+        ebiv::settings::describe_piv(&scaled_params(&params))
     );
     let quantity = if run.dt_us.is_some() {
         Quantity::Velocity
@@ -121,115 +103,4 @@ fn file_name(p: &Path) -> String {
         .unwrap_or_default()
         .to_string_lossy()
         .into_owned()
-}
-
-/// "64x64 px step 32 -> …, quintic symmetric deformation".
-fn describe(p: &PivParams) -> String {
-    format!(
-        "{}, {:?} correlation, {:?} {:?} deformation",
-        describe_passes(&p.passes),
-        p.correlation,
-        p.interpolation,
-        p.deformation
-    )
-    .to_lowercase()
-}
-
-/// Find the pulse timing from the start of `--time` if given, else from the first event,
-/// and say what was found.
-fn detect_pulse_timing(
-    run: &Resolved,
-    options: &ReadOptions,
-) -> Result<ebiv::frame::pulse::PulseTiming, Error> {
-    let input = run.input_path();
-    let mut reader = ebiv::io::open(&input, options)?;
-    let start = match run.time.and_then(|t| t.start) {
-        Some(start) if run.absolute_time => Some(start),
-        Some(start) => Some(first_event_time(&input, options)?.unwrap_or(0) + start),
-        None => None,
-    };
-    let timing = ebiv::frame::scan_pulse_timing(
-        &mut reader,
-        run.frames.polarity,
-        start,
-        None,
-        run.pulse_hz,
-    )?;
-    println!(
-        "pulses: {:.3} Hz (period {:.3} µs), frames start {:.1} µs into each period, from {} ({} periods, modulation contrast {:.2})",
-        timing.frequency_hz,
-        timing.period_us,
-        timing.phase_us(),
-        match timing.source {
-            PulseSource::Triggers => "trigger edges",
-            PulseSource::EventHistogram => "the event rate",
-        },
-        timing.periods,
-        timing.contrast
-    );
-    Ok(timing)
-}
-
-/// PIV of frames rebuilt from the recording (regular frames, or one per pulse).
-pub fn run_events(run: &Resolved, options: &ReadOptions) -> Result<(), Error> {
-    let clock = if run.method == Method::Pulsed {
-        FrameClock::Pulsed(detect_pulse_timing(run, options)?)
-    } else {
-        FrameClock::Regular {
-            step_us: run.frame_step_us,
-        }
-    };
-    let mut params = EventPivParams {
-        frames: run.frames,
-        clock,
-        pairs: run.pairs,
-        piv: run.piv.clone(),
-    };
-    params.check()?;
-    let input = run.input_path();
-    let (before, after) = params.time_extent_us();
-    let planned = run.plan_fields(options, (before, after), before + after)?;
-    crate::interrupt::check(&run.output)?;
-    let described = planned.describe_times();
-    let PlannedFields {
-        mut reader,
-        geometry: g,
-        times,
-        time_origin_us,
-    } = planned;
-    params.piv.mask = run.mask_for(g)?;
-    for pass in &params.piv.passes {
-        ebiv::grid::Grid::new(pass, g)?;
-    }
-    let plan = params.plan(times[0]);
-    println!(
-        "{}: {described}, PIV of {} {} frames ({} µs exposure, Δt {:.1} µs, {} pair(s) per field) on {g}, passes {}",
-        input.display(),
-        run.frames.kind.name(),
-        format!("{:?}", run.frames.polarity).to_lowercase(),
-        plan.exposure_us,
-        plan.dt_us,
-        run.pairs,
-        describe(&params.piv)
-    );
-    if let Some(dir) = &run.png {
-        std::fs::create_dir_all(dir).map_err(|e| Error::io(dir, e))?;
-    }
-    let started = Instant::now();
-    let mut progress = FieldProgress::new(run, g, times.len(), (before, after));
-    let (mut series, summary) = piv_events(&mut reader, g, &params, &times, &mut |d| {
-        progress.on_field(d)?;
-        if d.done < d.total {
-            crate::interrupt::check(&run.output)?;
-        }
-        Ok(())
-    })?;
-    let figures = progress.finish();
-    super::check_run_found_events(run, &summary, &described, run.frames.polarity)?;
-    series.time_origin_us = Some(time_origin_us);
-    finish_recording_run(run, &mut series, &summary, started, &reader.report())?;
-    if let Some(dir) = &run.png {
-        write_series_figures(&series, dir, run, figures)?;
-    }
-    Ok(())
 }
