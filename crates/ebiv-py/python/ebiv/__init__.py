@@ -1,0 +1,300 @@
+"""ebiv: event-based imaging velocimetry, flow fields from event cameras.
+
+Read recordings into NumPy arrays, measure velocity fields by sum of correlation, motion
+compensation or PIV (Willert & Klinner, Exp. Fluids 63:101, 2022), simulate recordings with
+their ground truth, and assess fields against it. The same library as the ``ebiv`` command,
+with the same setting names (``slab="10ms"``, ``window=[64, 32]``), defaults and results::
+
+    import ebiv
+    rec = ebiv.open("recording.raw")
+    t, x, y, p = rec.read(0, 50_000)
+    ds = ebiv.process("recording.raw", method="corrsum", slab="5ms", window=[64, 32])
+    ds.u.isel(time=0).plot()
+
+Long calls release the GIL; Ctrl-C interrupts them. ``ebiv.dask`` spreads many recordings,
+or long ones, over a Dask cluster.
+"""
+
+from __future__ import annotations
+
+import os
+import sys
+from typing import Any, Callable, Dict, Iterator, NamedTuple, Optional, Tuple, Union
+
+import numpy as np
+
+from . import _dataset, _ebiv
+from ._ebiv import EbivError, __version__
+
+__all__ = [
+    "EbivError",
+    "Events",
+    "Recording",
+    "Simulation",
+    "assess",
+    "examples",
+    "open",
+    "piv",
+    "process",
+    "settings",
+    "simulate",
+    "write",
+    "__version__",
+]
+
+PathLike = Union[str, "os.PathLike[str]"]
+Progress = Union[None, bool, Callable[[int, int], Any]]
+
+
+class Events(NamedTuple):
+    """Events as arrays: ``t`` (int64, µs of camera time), ``x``, ``y`` (uint16, px) and
+    ``p`` (uint8: 1 ON, 0 OFF)."""
+
+    t: np.ndarray
+    x: np.ndarray
+    y: np.ndarray
+    p: np.ndarray
+
+    def __repr__(self) -> str:
+        if len(self.t) == 0:
+            return "Events(0 events)"
+        return f"Events({len(self.t)} events, t {self.t.min()}..{self.t.max()} µs)"
+
+
+class Recording:
+    """An event recording opened by :func:`open`. Nothing is read until asked for."""
+
+    def __init__(self, native: Any) -> None:
+        self._native = native
+
+    @property
+    def path(self) -> str:
+        """The file's path."""
+        return str(self._native.path)
+
+    @property
+    def metadata(self) -> Dict[str, Any]:
+        """Format, geometry, header entries, sensor, serial, time shift (µs) and notes."""
+        return self._native.metadata
+
+    @property
+    def geometry(self) -> Optional[Tuple[int, int]]:
+        """The sensor size ``(width, height)`` when the file states it, else ``None``."""
+        return self._native.geometry
+
+    @property
+    def time_range(self) -> Optional[Tuple[int, int]]:
+        """``(first, last)`` event time stamps, µs of camera time (the first call reads the
+        whole file); ``None`` without events."""
+        return self._native.time_range
+
+    @property
+    def triggers(self) -> Dict[str, np.ndarray]:
+        """External trigger edges: arrays ``t`` (µs), ``channel`` and ``value``."""
+        return self._native.triggers
+
+    @property
+    def report(self) -> Dict[str, Any]:
+        """What the reader dropped or found odd in the whole file, as ``ebiv info`` says."""
+        return self._native.report
+
+    def read(self, t0: Union[int, str, None] = None, t1: Union[int, str, None] = None) -> Events:
+        """The events with ``t0 <= t < t1`` (µs of camera time, or texts such as "1.5s";
+        ``None``: from the start, to the end). The arrays own their memory: no copy is made
+        after decoding."""
+        return Events(*self._native.read(t0, t1))
+
+    def chunks(self, duration: Union[int, str, None] = None, count: Optional[int] = None) -> Iterator[Events]:
+        """Iterate over the events in chunks of ``duration`` (µs or "10ms"; aligned to the
+        first event, so a gap gives empty chunks) or of ``count`` events; neither: the
+        reader's batches (about 1 MB of the file each)."""
+        for chunk in self._native.chunks(duration, count):
+            yield Events(*chunk)
+
+    def __iter__(self) -> Iterator[Events]:
+        return self.chunks()
+
+    def __repr__(self) -> str:
+        return repr(self._native).replace("ebiv.Recording", "Recording")
+
+
+def open(path: PathLike, **reader_options: Any) -> Recording:  # noqa: A001 (as io.open)
+    """Open an event recording (RAW EVT 2.0/2.1/3.0, DAT, AEDAT 2/3.1/4, Event Stream,
+    CSV/text, NumPy, EBIV .evt). Reader options, as the command line's: ``geometry=(w, h)``,
+    ``format="evt3"``, ``raw_encoding``, ``metavision_time``, ``columns``, ``time_unit``,
+    ``delimiter``, ``polarity_values``."""
+    return Recording(_ebiv.open(path, **reader_options))
+
+
+def _progress(progress: Progress, what: str) -> Tuple[Optional[Callable[[int, int], Any]], Callable[[], None]]:
+    """The callback for ``progress`` (a callable ``(done, total)``; ``True``: a tqdm bar if
+    tqdm is installed, else a line on stderr) and what closes it."""
+    if progress is None or progress is False:
+        return None, lambda: None
+    if callable(progress):
+        return progress, lambda: None
+    try:
+        from tqdm.auto import tqdm
+    except ImportError:
+        def line(done: int, total: int) -> None:
+            print(f"\r{what}: {done}/{total}", end="", file=sys.stderr, flush=True)
+
+        return line, lambda: print(file=sys.stderr)
+    bar = tqdm(desc=what, total=0)
+
+    def update(done: int, total: int) -> None:
+        bar.total = total
+        bar.n = done
+        bar.refresh()
+
+    return update, bar.close
+
+
+def _result(raw: Dict[str, Any], decode_times: bool) -> Any:
+    if _dataset.have_xarray():
+        return _dataset.to_xarray(raw, decode_times)
+    return _dataset.to_dict(raw)
+
+
+def _source(source: Any) -> Any:
+    """Paths pass through; ``Events`` and tuples of arrays become a tuple ``(t, x, y, p)``."""
+    if isinstance(source, (str, os.PathLike)) or hasattr(source, "keys"):
+        return source
+    if isinstance(source, Recording):
+        return source.path
+    return tuple(source)
+
+
+def process(
+    source: Union[PathLike, Events, Tuple[Any, Any, Any, Any], Dict[str, Any]],
+    method: str = "corrsum",
+    *,
+    progress: Progress = None,
+    decode_times: bool = True,
+    **settings: Any,
+) -> Any:
+    """Velocity fields of a recording, as ``ebiv process`` measures them.
+
+    ``source``: a path (or a :class:`Recording`), or events as arrays ``(t, x, y, p)``
+    (pass ``geometry=(w, h)`` when the largest coordinates are not the sensor's size).
+    ``method``: ``corrsum``, ``motion``, ``piv`` (frames rebuilt from the events) or
+    ``pulsed``. ``settings``: any setting of ``ebiv process`` or of its configuration file,
+    with ``_`` for ``-`` (``slab="5ms"``, ``window=[64, 32]``, ``time="::5ms"``,
+    ``uncertainty=False``), ``config="ebiv.toml"`` to start from a file, reader options such as
+    ``geometry``, and ``output="flow.nc"`` to write the file as well. :func:`settings` lists
+    them.
+
+    Returns an ``xarray.Dataset`` with the variables, attributes and units of the NetCDF
+    output (``time`` decoded to dates unless ``decode_times=False``), or without xarray a
+    dict of NumPy arrays with ``attrs`` and ``variable_attrs``. Warnings (empty fields, no
+    valid vector) are Python warnings; errors are ``ValueError`` (a setting),
+    ``OSError`` (a file) or :class:`EbivError` (the data).
+    """
+    callback, close = _progress(progress, "fields")
+    try:
+        raw = _ebiv.process(_source(source), method, callback, **settings)
+    finally:
+        close()
+    return _result(raw, decode_times)
+
+
+def piv(*images: Any, progress: Progress = None, decode_times: bool = True, **settings: Any) -> Any:
+    """Cross-correlation PIV of images (paths or 2-D arrays of one size), pairs (1,2),
+    (3,4), … or with ``sequence=True`` (1,2), (2,3), …; ``ensemble=True`` for one field of
+    all pairs; ``dt="2ms"`` for velocities in px/ms instead of displacements in px. Settings
+    as ``ebiv process --method piv``. Returns a dataset as :func:`process` does."""
+    callback, close = _progress(progress, "fields")
+    try:
+        raw = _ebiv.piv(*images, progress=callback, **settings)
+    finally:
+        close()
+    return _result(raw, decode_times)
+
+
+class Simulation(NamedTuple):
+    """A simulated recording: its ``events``, sensor ``geometry`` ``(width, height)``, the
+    true velocity field ``truth`` (a dataset as :func:`process` returns) and, when asked
+    for, the particles' ``tracks`` (arrays ``id``, ``t_us``, ``x``, ``y``, ``z``, ``u``,
+    ``v``)."""
+
+    events: Events
+    geometry: Tuple[int, int]
+    truth: Any
+    tracks: Optional[Dict[str, np.ndarray]]
+
+
+def simulate(
+    scenario: Union[str, PathLike],
+    *,
+    seed: Optional[int] = None,
+    duration: Union[int, str, None] = None,
+    tracks: bool = False,
+    progress: Progress = None,
+    decode_times: bool = True,
+) -> Simulation:
+    """Simulate a recording with its ground truth, as ``ebiv simulate`` does: ``scenario``
+    is a ready example (:func:`examples`), a scenario file, or TOML text."""
+    callback, close = _progress(progress, "simulating")
+    try:
+        raw = _ebiv.simulate(scenario, seed, duration, tracks, callback)
+    finally:
+        close()
+    return Simulation(
+        Events(*raw["events"]),
+        tuple(raw["geometry"]),
+        _result(raw["truth"], decode_times),
+        raw.get("tracks"),
+    )
+
+
+def _field(field: Any) -> Any:
+    if isinstance(field, (str, os.PathLike)):
+        return field
+    return _dataset.from_field(field)
+
+
+def assess(
+    field: Any,
+    truth: Optional[PathLike] = None,
+    *,
+    truth_example: Optional[str] = None,
+    outlier_px: Optional[float] = None,
+    outlier_floor: Optional[float] = None,
+    outlier_fixed: Optional[float] = None,
+    mm_per_px: Optional[float] = None,
+    frame_interval: Union[int, str, None] = None,
+) -> Dict[str, Any]:
+    """Errors of a field (a dataset from :func:`process`, or a field file) against the
+    truth, as ``ebiv assess`` reports them: ``truth`` is a truth field or scenario file,
+    ``truth_example`` a ready scenario. Returns the metrics as a dict (bias, random error,
+    RMS, outliers, uncertainty coverage, …; see docs/assess.md)."""
+    return _ebiv.assess(
+        _field(field),
+        truth,
+        truth_example,
+        outlier_px,
+        outlier_floor,
+        outlier_fixed,
+        mm_per_px,
+        frame_interval,
+    )
+
+
+def write(field: Any, path: PathLike) -> None:
+    """Write a field (a dataset from :func:`process`, or a field file to convert) as
+    NetCDF (.nc), CSV, NPZ, Tecplot (.dat) or VTK (.vtk), as ``ebiv process -o`` does."""
+    _ebiv.write(_field(field), path)
+
+
+def examples() -> Dict[str, str]:
+    """The ready scenarios of :func:`simulate`: name and description."""
+    return dict(_ebiv.examples())
+
+
+def settings() -> Dict[str, Dict[str, Any]]:
+    """Every setting :func:`process` takes: keyword, group, default and summary, from the
+    one schema the command line and the configuration file use."""
+    return {
+        key: {"group": group, "default": default, "summary": summary}
+        for key, group, default, summary in _ebiv.setting_names()
+    }

@@ -1,0 +1,34 @@
+//! The Python package `ebiv` (module `ebiv._ebiv`): reading recordings into NumPy arrays,
+//! and every measurement of the library (`process`, `piv`, `simulate`, `assess`, `write`)
+//! with the settings of the command line and the configuration file as keywords.
+//!
+//! This crate only converts between Python and the library: settings are the library's
+//! ([`ebiv::settings`]), runs are the library's ([`ebiv::settings::Resolved::measure`]),
+//! datasets are the NetCDF writer's ([`ebiv::export::netcdf_dataset`]). The pure-Python part
+//! of the package (`python/ebiv`) turns datasets into `xarray.Dataset`s and adds `ebiv.dask`.
+
+mod convert;
+mod errors;
+mod measure;
+mod observe;
+mod recording;
+
+use pyo3::prelude::*;
+
+/// The extension module.
+#[pymodule]
+fn _ebiv(m: &Bound<'_, PyModule>) -> PyResult<()> {
+    m.add("EbivError", m.py().get_type::<errors::EbivError>())?;
+    m.add("__version__", env!("CARGO_PKG_VERSION"))?;
+    m.add_class::<recording::Recording>()?;
+    m.add_class::<recording::Chunks>()?;
+    m.add_function(wrap_pyfunction!(recording::open, m)?)?;
+    m.add_function(wrap_pyfunction!(measure::process, m)?)?;
+    m.add_function(wrap_pyfunction!(measure::piv, m)?)?;
+    m.add_function(wrap_pyfunction!(measure::simulate, m)?)?;
+    m.add_function(wrap_pyfunction!(measure::assess, m)?)?;
+    m.add_function(wrap_pyfunction!(measure::write, m)?)?;
+    m.add_function(wrap_pyfunction!(measure::setting_names, m)?)?;
+    m.add_function(wrap_pyfunction!(measure::examples, m)?)?;
+    Ok(())
+}

@@ -1,0 +1,131 @@
+"""ebiv.process gives what `ebiv process` gives: the same variables, values, attributes and
+units, for the same settings."""
+
+import threading
+import time
+import _thread
+
+import numpy as np
+import pytest
+import xarray as xr
+
+import ebiv
+
+SETTINGS = {"window": [48, 32], "slab": "5ms", "time": "::5ms"}
+FLAGS = ["--window", "48,32", "--slab", "5ms", "--time", "::5ms"]
+
+
+@pytest.mark.parametrize("method", ["corrsum", "motion", "piv"])
+def test_equals_the_command_line(simulated, cli, tmp_path, method):
+    rec = simulated / "rec.raw"
+    cli("process", rec, "--method", method, *FLAGS, "-o", tmp_path / "cli.nc")
+    expected = xr.open_dataset(tmp_path / "cli.nc").load()
+    ds = ebiv.process(rec, method=method, **SETTINGS)
+    xr.testing.assert_identical(ds, expected)
+    assert ds.u.attrs["units"] == "pixel/millisecond"
+    assert int((ds.status == 0).sum()) > 0.8 * ds.status.size
+
+
+def test_a_config_file_and_keywords_combine_as_on_the_command_line(simulated, cli, tmp_path):
+    config = tmp_path / "ebiv.toml"
+    config.write_text('window = [48, 32]\nslab = "5ms"\nmax-velocity = 8.0\n')
+    rec = simulated / "rec.raw"
+    cli("process", rec, "--config", config, "--time", "::5ms", "--no-uncertainty",
+        "-o", tmp_path / "cli.nc")
+    ds = ebiv.process(rec, config=config, time="::5ms", uncertainty=False,
+                      output=tmp_path / "py.nc")
+    expected = xr.open_dataset(tmp_path / "cli.nc").load()
+    xr.testing.assert_identical(ds, expected)
+    xr.testing.assert_identical(xr.open_dataset(tmp_path / "py.nc").load(), expected)
+    assert np.isnan(ds.u_unc).all()
+
+
+def test_event_arrays_give_the_fields_of_the_file(simulated):
+    rec = ebiv.open(simulated / "rec.raw")
+    from_file = ebiv.process(rec.path, **SETTINGS)
+    from_arrays = ebiv.process(rec.read(), geometry=rec.geometry, **SETTINGS)
+    assert from_arrays.attrs["source"] == "arrays"
+    for name in from_file.data_vars:
+        np.testing.assert_array_equal(from_arrays[name].values, from_file[name].values)
+    as_dict = ebiv.process({"t": rec.read().t, "x": rec.read().x, "y": rec.read().y,
+                            "p": rec.read().p}, geometry=rec.geometry, **SETTINGS)
+    np.testing.assert_array_equal(as_dict.u.values, from_file.u.values)
+
+
+def test_times_stay_microseconds_when_asked(simulated):
+    ds = ebiv.process(simulated / "rec.raw", decode_times=False, **SETTINGS)
+    assert ds.time.dtype == np.float64
+    assert ds.time.attrs["units"].startswith("microseconds since")
+
+
+def test_progress_reaches_every_field(simulated):
+    seen = []
+    ebiv.process(simulated / "rec.raw", progress=lambda done, total: seen.append((done, total)),
+                 **SETTINGS)
+    assert seen and seen[-1][0] == seen[-1][1] > 1
+    assert all(b >= a for (a, _), (b, _) in zip(seen, seen[1:]))
+
+
+def test_an_exception_in_the_progress_callback_stops_the_run(simulated):
+    def fail(done, total):
+        raise RuntimeError("stop here")
+
+    with pytest.raises(RuntimeError, match="stop here"):
+        ebiv.process(simulated / "rec.raw", progress=fail, **SETTINGS)
+
+
+def test_ctrl_c_interrupts_a_long_run(simulated):
+    # Many fields of a slow method: seconds of work, interrupted after 0.3 s.
+    timer = threading.Timer(0.3, _thread.interrupt_main)
+    started = time.monotonic()
+    timer.start()
+    with pytest.raises(KeyboardInterrupt):
+        ebiv.process(simulated / "rec.raw", method="motion", time="::200us", slab="5ms",
+                     window=[32, 16])
+    assert time.monotonic() - started < 5.0
+    timer.cancel()
+
+
+def test_the_gil_is_released_while_measuring(simulated):
+    ticks = []
+    stop = threading.Event()
+
+    def tick():
+        while not stop.is_set():
+            ticks.append(time.monotonic())
+            time.sleep(0.005)
+
+    thread = threading.Thread(target=tick)
+    thread.start()
+    started = time.monotonic()
+    ebiv.process(simulated / "rec.raw", method="motion", **SETTINGS)
+    elapsed = time.monotonic() - started
+    stop.set()
+    thread.join()
+    during = [t for t in ticks if started <= t <= started + elapsed]
+    # A held GIL would starve the thread for the whole call.
+    assert len(during) >= max(2, int(elapsed / 0.005 * 0.3))
+
+
+def test_settings_errors_are_the_command_line_messages(simulated, cli):
+    rec = simulated / "rec.raw"
+    message = cli("process", rec, "--window", "0", check=False).stderr
+    with pytest.raises(ValueError) as err:
+        ebiv.process(rec, window=0)
+    assert str(err.value) in message
+    with pytest.raises(ValueError, match="unknown setting"):
+        ebiv.process(rec, windw=32)
+    with pytest.raises(ebiv.EbivError, match="no event"):
+        ebiv.process(rec, time="5s:5.01s:1ms")
+    with pytest.raises(FileNotFoundError):
+        ebiv.process(rec.with_name("nothing.raw"))
+    with pytest.raises(ValueError, match="length"):
+        ebiv.process((np.zeros(3), np.zeros(2), np.zeros(3), np.zeros(3)))
+    with pytest.raises(ValueError, match="png"):
+        ebiv.process(rec, png="figures")
+
+
+def test_every_setting_is_listed_with_its_default():
+    settings = ebiv.settings()
+    assert settings["slab"]["default"] == "10ms"
+    assert "max_velocity" in settings and "uncertainty" in settings
