@@ -23,7 +23,9 @@ fn _ebiv(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<recording::Recording>()?;
     m.add_class::<recording::Chunks>()?;
     m.add_function(wrap_pyfunction!(recording::open, m)?)?;
+    m.add_function(wrap_pyfunction!(recording::py_duration_us, m)?)?;
     m.add_function(wrap_pyfunction!(measure::process, m)?)?;
+    m.add_function(wrap_pyfunction!(measure::plan, m)?)?;
     m.add_function(wrap_pyfunction!(measure::piv, m)?)?;
     m.add_function(wrap_pyfunction!(measure::simulate, m)?)?;
     m.add_function(wrap_pyfunction!(measure::assess, m)?)?;

@@ -155,6 +155,33 @@ pub fn process<'py>(
     series_to_py(py, &measured.series)
 }
 
+/// The plan of `process` over the recording at `source` without measuring: the field
+/// times (µs of camera time), the time they count from, the events a field needs before
+/// and after its time, µs, and the sensor size. `ebiv.dask` splits runs into shards by it.
+#[pyfunction]
+#[pyo3(signature = (source, method="corrsum", **settings))]
+pub fn plan<'py>(
+    py: Python<'py>,
+    source: PathBuf,
+    method: &str,
+    settings: Option<&Bound<'py, PyDict>>,
+) -> PyResult<Bound<'py, PyDict>> {
+    let (mut s, options, _) = settings_from(py, settings)?;
+    s.set("method", &toml::Value::String(method.into()))
+        .py_err()?;
+    s.input = Some(source.clone());
+    let run = s.resolve().py_err()?;
+    let events = EventSource::file(source, &options);
+    let (planned, extent) = py.detach(|| run.plan(&events)).py_err()?;
+    let out = PyDict::new(py);
+    out.set_item("times", PyArray1::from_vec(py, planned.times))?;
+    out.set_item("time_origin_us", planned.time_origin_us)?;
+    out.set_item("extent_us", extent)?;
+    let g = planned.geometry;
+    out.set_item("geometry", (g.width, g.height))?;
+    Ok(out)
+}
+
 /// A grey image from a path or a 2-D array (any numeric type, converted to float32).
 fn frame_of(image: &Bound<'_, PyAny>, index: usize) -> PyResult<(Frame, PathBuf)> {
     let py = image.py();

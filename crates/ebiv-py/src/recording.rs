@@ -257,6 +257,14 @@ impl Recording {
     }
 }
 
+/// A time in µs, from an integer or a text with units ("10ms", "1.5s"); the error names
+/// the parameter `name`.
+#[pyfunction]
+#[pyo3(name = "duration_us")]
+pub fn py_duration_us(name: &str, value: &Bound<'_, PyAny>) -> PyResult<i64> {
+    duration_us(name, value)
+}
+
 /// A time in µs: an integer, or a text with units ("10ms", "1.5s").
 pub fn duration_us(name: &str, value: &Bound<'_, PyAny>) -> PyResult<i64> {
     if let Ok(text) = value.extract::<String>() {

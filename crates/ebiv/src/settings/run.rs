@@ -91,12 +91,29 @@ impl Resolved {
         })
     }
 
-    /// PIV of frames rebuilt from the recording (regular frames, or one per pulse).
-    fn measure_frames(
+    /// The run's plan over `source`, without measuring: the field times, their origin, and
+    /// the events each field needs before and after its time, µs. A run restricted by `time`
+    /// to some of these fields (a shard) measures them exactly as the whole run does.
+    pub fn plan(&self, source: &EventSource) -> Result<(PlannedFields, (i64, i64))> {
+        let (extent, step) = match self.method {
+            Method::CorrSum | Method::Motion => {
+                (self.with_event_estimator(PlanningExtent)?, self.slab_us())
+            }
+            Method::Piv | Method::Pulsed => {
+                let (before, after) = self.frame_params(source, &mut ())?.time_extent_us();
+                ((before, after), before + after)
+            }
+        };
+        Ok((self.plan_fields(source, extent, step)?, extent))
+    }
+
+    /// The parameters of PIV of frames rebuilt from `source`: regular frames, or one per
+    /// pulse with the pulse timing found in the recording (told to `observer`).
+    fn frame_params(
         &self,
         source: &EventSource,
         observer: &mut dyn RunObserver,
-    ) -> Result<Outcome> {
+    ) -> Result<EventPivParams> {
         let clock = if self.method == Method::Pulsed {
             let timing = self.pulse_timing(source)?;
             observer.note(&describe_pulses(&timing));
@@ -106,15 +123,26 @@ impl Resolved {
                 step_us: self.frame_step_us,
             }
         };
-        let mut params = EventPivParams {
+        let params = EventPivParams {
             frames: self.frames,
             clock,
             pairs: self.pairs,
             piv: self.piv.clone(),
         };
         params.check()?;
+        Ok(params)
+    }
+
+    /// PIV of frames rebuilt from the recording (regular frames, or one per pulse).
+    fn measure_frames(
+        &self,
+        source: &EventSource,
+        observer: &mut dyn RunObserver,
+    ) -> Result<Outcome> {
+        let mut params = self.frame_params(source, observer)?;
         let (before, after) = params.time_extent_us();
         let mut planned = self.plan_fields(source, (before, after), before + after)?;
+        skip_to_first_field(&mut planned, before)?;
         let g = planned.geometry;
         params.piv.mask = self.mask_for(g)?;
         for pass in &params.piv.passes {
@@ -189,6 +217,16 @@ type Outcome = (
     PolaritySelection,
 );
 
+/// The time extent an event estimator plans its fields with.
+struct PlanningExtent;
+
+impl EstimatorTask for PlanningExtent {
+    type Output = (i64, i64);
+    fn run<E: Estimator>(self, estimator: &E) -> (i64, i64) {
+        estimator.planning_extent_us()
+    }
+}
+
 /// A run of an event estimator ([`Resolved::with_event_estimator`]).
 struct EventRun<'a> {
     run: &'a Resolved,
@@ -206,6 +244,7 @@ impl EstimatorTask for EventRun<'_> {
         } = self;
         let extent_us = estimator.planning_extent_us();
         let mut planned = run.plan_fields(source, extent_us, run.slab_us())?;
+        skip_to_first_field(&mut planned, extent_us.0)?;
         let g = planned.geometry;
         let mut params = run.process.clone();
         params.mask = run.mask_for(g)?;
@@ -234,6 +273,14 @@ impl EstimatorTask for EventRun<'_> {
         let report = planned.reader.report();
         Ok((series, summary, report, planned, params.polarity))
     }
+}
+
+/// Skip the events before the first field needs them (`before` µs ahead of its time), by
+/// the file's index where it has one: what the fields read is unchanged, as they drop the
+/// events before their slabs themselves.
+fn skip_to_first_field(planned: &mut PlannedFields, before: i64) -> Result<()> {
+    let first = planned.times[0].saturating_sub(before);
+    planned.reader.skip_to(first)
 }
 
 /// After a run, before anything is written: an error when no field held an event of the

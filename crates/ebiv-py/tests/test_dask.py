@@ -1,0 +1,57 @@
+"""ebiv.dask on a local cluster of two worker processes (loopback, no dashboard): the
+sharded result equals the single-process one exactly."""
+
+import json
+
+import numpy as np
+import pytest
+import xarray as xr
+
+import ebiv
+import ebiv.dask
+
+distributed = pytest.importorskip("dask.distributed")
+
+SETTINGS = {"window": [48, 32], "slab": "5ms", "time": "::2ms"}
+
+
+@pytest.fixture(scope="module")
+def client():
+    cluster = distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True,
+                                       host="127.0.0.1", dashboard_address=None)
+    with distributed.Client(cluster) as client:
+        yield client
+    cluster.close()
+
+
+def test_shards_cover_every_field_once(simulated):
+    whole = ebiv.process(simulated / "rec.raw", **SETTINGS)
+    parts = ebiv.dask.shards(simulated / "rec.raw", shard="7ms", **SETTINGS)
+    assert len(parts) > 2
+    assert sum(s.fields for s in parts) == whole.sizes["time"]
+    assert all(a.last_us < b.first_us for a, b in zip(parts, parts[1:]))
+
+
+def test_sharded_equals_single_process(simulated, client):
+    rec = simulated / "rec.raw"
+    whole = ebiv.process(rec, **SETTINGS)
+    sharded = ebiv.dask.process(rec, client=client, shard="7ms", **SETTINGS)
+    xr.testing.assert_identical(sharded, whole)
+    both = ebiv.dask.process([rec, rec], client=client, shard="10ms", method="motion", **SETTINGS)
+    xr.testing.assert_identical(both[str(rec)], ebiv.process(rec, method="motion", **SETTINGS))
+
+
+def test_shards_written_to_files_with_an_index(simulated, client, tmp_path):
+    rec = simulated / "rec.raw"
+    index = ebiv.dask.process(rec, client=client, shard="7ms", output_dir=tmp_path, **SETTINGS)
+    entries = json.loads(open(index).read())["shards"]
+    files = [xr.open_dataset(tmp_path / e["file"]).load() for e in entries]
+    joined = xr.concat(files, dim="time", combine_attrs="identical")
+    xr.testing.assert_identical(joined, ebiv.process(rec, **SETTINGS))
+
+
+def test_bad_shard_lengths_are_refused(simulated):
+    with pytest.raises(ValueError, match="shard"):
+        ebiv.dask.shards(simulated / "rec.raw", shard="0ms")
+    with pytest.raises(ValueError, match="shard"):
+        ebiv.dask.shards(simulated / "rec.raw", shard="soon")
