@@ -35,6 +35,8 @@ enum Command {
     Demo(cmd::demo::DemoArgs),
     /// Describe a recording: format, sensor, counts, time range, rates, triggers, warnings.
     Info(cmd::info::InfoArgs),
+    /// Build the index of RAW recordings, for fast seeking to a time.
+    Index(cmd::index::IndexArgs),
     /// Convert a recording to EVT 3.0 RAW, CSV, NPY or NPZ, optionally cut and cropped.
     Convert(cmd::convert::ConvertArgs),
     /// Draw a time-coded event image or an event-rate map as PNG.
@@ -81,6 +83,7 @@ fn main() -> ExitCode {
     let result = match &cli.command {
         Command::Demo(a) => cmd::demo::run(a),
         Command::Info(a) => cmd::info::run(a),
+        Command::Index(a) => cmd::index::run(a),
         Command::Convert(a) => cmd::convert::run(a),
         Command::Render(a) => cmd::render::run(a),
         Command::Frames(a) => cmd::frames::run(a),

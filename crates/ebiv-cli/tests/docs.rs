@@ -8,8 +8,9 @@ use std::path::PathBuf;
 
 /// Where commands are described: the commands, the page, and the heading that opens their
 /// section (the section runs to the next heading of the same level), or the whole page.
-const PAGES: [(&[&str], &str, Option<&str>); 10] = [
+const PAGES: [(&[&str], &str, Option<&str>); 11] = [
     (&["info"], "commands.md", Some("## `ebiv info")),
+    (&["index"], "commands.md", Some("## `ebiv index")),
     (&["convert"], "commands.md", Some("## `ebiv convert")),
     (&["render"], "commands.md", Some("## `ebiv render")),
     (&["frames"], "commands.md", Some("## `ebiv frames")),
@@ -195,8 +196,9 @@ fn help_and_reference_pages_name_the_same_options() {
 
 /// The ebiv commands a line runs (`ebiv process …` gives `process`).
 fn named_commands(line: &str) -> Vec<String> {
-    const COMMANDS: [&str; 9] = [
-        "info", "convert", "render", "frames", "process", "init", "demo", "simulate", "bench",
+    const COMMANDS: [&str; 10] = [
+        "info", "index", "convert", "render", "frames", "process", "init", "demo", "simulate",
+        "bench",
     ];
     line.match_indices("ebiv ")
         .filter_map(|(i, _)| {

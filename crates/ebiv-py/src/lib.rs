@@ -20,9 +20,15 @@ use pyo3::prelude::*;
 fn _ebiv(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add("EbivError", m.py().get_type::<errors::EbivError>())?;
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;
+    let reader_options: Vec<String> = ebiv::io::READ_OPTIONS
+        .iter()
+        .map(|k| k.replace('-', "_"))
+        .collect();
+    m.add("READER_OPTIONS", reader_options)?;
     m.add_class::<recording::Recording>()?;
     m.add_class::<recording::Chunks>()?;
     m.add_function(wrap_pyfunction!(recording::open, m)?)?;
+    m.add_function(wrap_pyfunction!(recording::index, m)?)?;
     m.add_function(wrap_pyfunction!(recording::py_duration_us, m)?)?;
     m.add_function(wrap_pyfunction!(measure::process, m)?)?;
     m.add_function(wrap_pyfunction!(measure::plan, m)?)?;

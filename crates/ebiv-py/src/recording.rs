@@ -44,6 +44,35 @@ pub fn open(path: PathBuf, reader_options: Option<&Bound<'_, PyDict>>) -> PyResu
     })
 }
 
+/// The index of the recording at `path` (RAW EVT 2.0, 2.1, 3.0): built and stored when
+/// missing or stale (or with `force=True`), as `ebiv index` does. Returns where it is
+/// stored, or `None` for formats without an index.
+#[pyfunction]
+#[pyo3(signature = (path, force=false, **reader_options))]
+pub fn index(
+    py: Python<'_>,
+    path: PathBuf,
+    force: bool,
+    reader_options: Option<&Bound<'_, PyDict>>,
+) -> PyResult<Option<PathBuf>> {
+    let mut options = ReadOptions::default();
+    apply_keywords(
+        reader_options,
+        &mut ProcessSettings::default(),
+        &mut options,
+    )?;
+    watched(py, None, |_| {
+        if force {
+            return match ebiv::io::index::build_index(&path, &options) {
+                Ok(index) => ebiv::io::index::write_index(&path, &index).map(Some),
+                Err(ebiv::Error::Unsupported { .. }) => Ok(None),
+                Err(e) => Err(e),
+            };
+        }
+        Ok(ebiv::io::index::ensure_index(&path, &options)?.map(|(_, file)| file))
+    })
+}
+
 /// What one pass over the whole recording finds.
 #[derive(Clone)]
 struct Scan {

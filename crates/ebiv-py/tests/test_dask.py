@@ -2,6 +2,7 @@
 sharded result equals the single-process one exactly."""
 
 import json
+import os
 
 import numpy as np
 import pytest
@@ -55,3 +56,21 @@ def test_bad_shard_lengths_are_refused(simulated):
         ebiv.dask.shards(simulated / "rec.raw", shard="0ms")
     with pytest.raises(ValueError, match="shard"):
         ebiv.dask.shards(simulated / "rec.raw", shard="soon")
+
+
+def test_the_index_is_built_once_and_used(simulated, tmp_path):
+    import shutil
+
+    rec = tmp_path / "rec.raw"
+    shutil.copy(simulated / "rec.raw", rec)
+    plain = ebiv.open(rec).read(20_000, 30_000)
+    stored = ebiv.index(rec)
+    assert stored == str(rec) + ".ebividx"
+    modified = os.path.getmtime(stored)
+    assert ebiv.index(rec) == stored and os.path.getmtime(stored) == modified
+    indexed = ebiv.open(rec).read(20_000, 30_000)
+    for a, b in zip(indexed, plain):
+        np.testing.assert_array_equal(a, b)
+    csv = tmp_path / "e.csv"
+    csv.write_text("t,x,y,p\n1,2,3,1\n")
+    assert ebiv.index(csv) is None

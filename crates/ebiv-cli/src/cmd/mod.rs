@@ -6,6 +6,7 @@ pub mod bench;
 pub mod convert;
 pub mod demo;
 pub mod frames;
+pub mod index;
 pub mod info;
 pub mod process;
 pub mod render;

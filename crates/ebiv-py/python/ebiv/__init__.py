@@ -33,6 +33,7 @@ __all__ = [
     "Simulation",
     "assess",
     "examples",
+    "index",
     "open",
     "piv",
     "process",
@@ -124,6 +125,15 @@ def open(path: PathLike, **reader_options: Any) -> Recording:  # noqa: A001 (as 
     ``format="evt3"``, ``raw_encoding``, ``metavision_time``, ``columns``, ``time_unit``,
     ``delimiter``, ``polarity_values``."""
     return Recording(_ebiv.open(path, **reader_options))
+
+
+def index(path: PathLike, *, force: bool = False, **reader_options: Any) -> Optional[str]:
+    """Build and store the index of a RAW recording (EVT 2.0, 2.1, 3.0) when it is missing
+    or stale, as ``ebiv index`` does, so that reading from a time seeks instead of decoding
+    everything before it. Returns where the index is stored; ``None`` for formats without
+    one."""
+    stored = _ebiv.index(path, force, **reader_options)
+    return None if stored is None else os.fspath(stored)
 
 
 def _progress(progress: Progress, what: str) -> Tuple[Optional[Callable[[int, int], Any]], Callable[[], None]]:

@@ -85,6 +85,11 @@ def _measure(shard: Shard, method: str, settings: Dict[str, Any], output: Option
     return output if output is not None else ds
 
 
+def _reader_options(settings: Dict[str, Any]) -> Dict[str, Any]:
+    """The reader options among ``settings`` (``geometry``, ``format``, …)."""
+    return {k: v for k, v in settings.items() if k in _ebiv.READER_OPTIONS and v is not None}
+
+
 def _client(client: Any) -> Any:
     if client is not None:
         return client
@@ -118,6 +123,10 @@ def process(
     single = isinstance(recordings, (str, os.PathLike))
     paths = [os.fspath(recordings)] if single else [os.fspath(r) for r in recordings]
     settings = {k: v for k, v in settings.items() if k != "time" or v is not None}
+    for path in paths:
+        # Built once here, used by every worker that opens the file (beside it, or in the
+        # index cache of a shared home); a no-op where it exists or the format needs none.
+        _ebiv.index(path, False, **_reader_options(settings))
     plans = {p: shards(p, method, shard=shard, **settings) for p in paths}
     settings.pop("time", None)
     futures = {}

@@ -2,10 +2,10 @@
 //! file is read in chunks, whole words are handed to a stateful decoder, and a word split
 //! across two chunks is carried over.
 
-use super::{DecodeReport, FormatReader, Metadata, ReadSeek};
-use crate::error::Result;
+use super::{DecodeReport, FormatReader, Metadata, ReadSeek, ResumePoint};
+use crate::error::{Error, Result};
 use crate::event::EventBuffer;
-use std::io::Read;
+use std::io::{Read, SeekFrom};
 
 /// A stateful decoder of fixed-size words; state (time base, vector base, continuation
 /// words) persists across calls.
@@ -26,6 +26,17 @@ pub(crate) trait WordDecoder: Send {
     }
     /// Called once at the end of the stream.
     fn finish(&mut self, _end_offset: u64, _report: &mut DecodeReport) {}
+    /// What the decoder carries from one word to the next (time base, vector base, …), to
+    /// resume decoding at a word boundary later ([`super::index`]); `None` for decoders that
+    /// do not support resuming.
+    fn state(&self) -> Option<Vec<i64>> {
+        None
+    }
+    /// Resume with a state [`WordDecoder::state`] gave for the same file; `None` when the
+    /// state is not one of this decoder's.
+    fn restore(&mut self, _state: &[i64]) -> Option<()> {
+        None
+    }
 }
 
 /// [`FormatReader`] over a [`WordDecoder`].
@@ -127,5 +138,27 @@ impl<D: WordDecoder> FormatReader for WordStreamReader<D> {
 
     fn position(&self) -> Option<u64> {
         Some(self.offset)
+    }
+
+    fn resume_point(&self) -> Option<ResumePoint> {
+        Some(ResumePoint {
+            offset: self.offset,
+            state: self.decoder.state()?,
+        })
+    }
+
+    fn resume(&mut self, point: &ResumePoint) -> Result<()> {
+        self.decoder.restore(&point.state).ok_or_else(|| {
+            Error::corrupt(
+                &self.context,
+                point.offset,
+                "the recording's index does not match the file (rebuild it with `ebiv index`)",
+            )
+        })?;
+        self.source.seek(SeekFrom::Start(point.offset))?;
+        self.offset = point.offset;
+        self.carry = 0;
+        self.done = false;
+        Ok(())
     }
 }

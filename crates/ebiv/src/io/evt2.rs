@@ -59,6 +59,31 @@ impl TimeBase34 {
     pub fn metavision_shift(&self) -> Option<i64> {
         self.first_high_us.map(|h| h + self.offset_us)
     }
+
+    /// The state carried between words (the header's offset is not part of it):
+    /// `[has base, base, last high, loops, has first high, first high]`.
+    pub fn state(&self) -> Vec<i64> {
+        vec![
+            self.base.is_some() as i64,
+            self.base.unwrap_or(0),
+            self.last_high_us,
+            self.loops_us,
+            self.first_high_us.is_some() as i64,
+            self.first_high_us.unwrap_or(0),
+        ]
+    }
+
+    /// Resume with a [`TimeBase34::state`].
+    pub fn restore(&mut self, state: &[i64]) -> Option<()> {
+        let &[has_base, base, last_high, loops, has_first, first] = state else {
+            return None;
+        };
+        self.base = (has_base != 0).then_some(base);
+        self.last_high_us = last_high;
+        self.loops_us = loops;
+        self.first_high_us = (has_first != 0).then_some(first);
+        Some(())
+    }
 }
 
 /// Stateful EVT 2.0 decoder.
@@ -81,6 +106,14 @@ impl Evt2Decoder {
 
 impl WordDecoder for Evt2Decoder {
     const WORD_BYTES: usize = 4;
+
+    fn state(&self) -> Option<Vec<i64>> {
+        Some(self.time.state())
+    }
+
+    fn restore(&mut self, state: &[i64]) -> Option<()> {
+        self.time.restore(state)
+    }
 
     fn decode(
         &mut self,

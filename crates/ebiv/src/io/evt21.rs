@@ -48,6 +48,14 @@ impl Evt21Decoder {
 impl WordDecoder for Evt21Decoder {
     const WORD_BYTES: usize = 8;
 
+    fn state(&self) -> Option<Vec<i64>> {
+        Some(self.time.state())
+    }
+
+    fn restore(&mut self, state: &[i64]) -> Option<()> {
+        self.time.restore(state)
+    }
+
     fn decode(
         &mut self,
         bytes: &[u8],

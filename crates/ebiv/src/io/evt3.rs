@@ -102,6 +102,45 @@ impl Evt3Decoder {
 impl WordDecoder for Evt3Decoder {
     const WORD_BYTES: usize = 2;
 
+    /// Everything but the sensor size and the header's offset, in field order.
+    fn state(&self) -> Option<Vec<i64>> {
+        Some(vec![
+            self.loops_us,
+            self.time_high as i64,
+            self.high_us,
+            self.t,
+            self.seen_time_high as i64,
+            self.first_time_high.map_or(-1, i64::from),
+            self.y as i64,
+            self.y_valid as i64,
+            self.base_x as i64,
+            self.vect_pol as i64,
+            self.seen_vector_base as i64,
+        ])
+    }
+
+    fn restore(&mut self, state: &[i64]) -> Option<()> {
+        let &[loops, time_high, high, t, seen_high, first_high, y, y_valid, base_x, pol, seen_base] =
+            state
+        else {
+            return None;
+        };
+        self.loops_us = loops;
+        self.time_high = u16::try_from(time_high).ok()?;
+        self.high_us = high;
+        self.t = t;
+        self.seen_time_high = seen_high != 0;
+        self.first_time_high = (first_high >= 0)
+            .then(|| u16::try_from(first_high).ok())
+            .flatten();
+        self.y = u16::try_from(y).ok()?;
+        self.y_valid = y_valid != 0;
+        self.base_x = u32::try_from(base_x).ok()?;
+        self.vect_pol = u8::try_from(pol).ok()?;
+        self.seen_vector_base = seen_base != 0;
+        Some(())
+    }
+
     fn decode(
         &mut self,
         bytes: &[u8],

@@ -16,6 +16,7 @@ mod evt2;
 mod evt21;
 mod evt3;
 pub mod field;
+pub mod index;
 mod memory;
 mod npy;
 mod npz;
@@ -143,11 +144,44 @@ pub(crate) trait FormatReader: Send {
     fn position(&self) -> Option<u64> {
         None
     }
+    /// Where decoding could resume now, with the decoder's state: a point of the
+    /// recording's index ([`index`]). `None` for formats that do not support it.
+    fn resume_point(&self) -> Option<ResumePoint> {
+        None
+    }
+    /// Continue decoding at `point`, recorded by [`FormatReader::resume_point`] from the
+    /// same file.
+    fn resume(&mut self, _point: &ResumePoint) -> Result<()> {
+        Err(Error::Unsupported {
+            context: self.metadata().format.name().into(),
+            message: "this format cannot resume at an index point".into(),
+        })
+    }
 }
 
-/// Open the event file at `path` for streaming.
+/// A place in a file where decoding can resume: the byte offset of a word boundary and the
+/// state the decoder carries there.
+#[derive(Debug, Clone, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+pub struct ResumePoint {
+    /// Byte offset in the file.
+    pub offset: u64,
+    /// The decoder's state (format-specific numbers).
+    pub state: Vec<i64>,
+}
+
+/// Open the event file at `path` for streaming; seeking uses the recording's index where one
+/// is stored ([`index`]).
 pub fn open(path: impl AsRef<Path>, options: &ReadOptions) -> Result<EventReader> {
     let path = path.as_ref();
+    let mut reader = open_without_index(path, options)?;
+    if reader.inner().resume_point().is_some() {
+        reader.index = index::load_index(path, reader.metadata().format.name()).map(Into::into);
+    }
+    Ok(reader)
+}
+
+/// [`open`] without looking for an index.
+fn open_without_index(path: &Path, options: &ReadOptions) -> Result<EventReader> {
     let file = std::fs::File::open(path).map_err(|e| Error::io(path, e))?;
     let ext = path
         .extension()

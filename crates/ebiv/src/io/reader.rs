@@ -26,6 +26,8 @@ pub struct EventReader {
     /// Events decoded past a seek target, handed out by the next `read_batch`.
     pending: Option<EventBuffer>,
     metadata: Metadata,
+    /// The recording's index, when one is stored for it ([`super::index`]).
+    pub(crate) index: Option<std::sync::Arc<super::index::RecordingIndex>>,
 }
 
 impl EventReader {
@@ -39,7 +41,21 @@ impl EventReader {
             own: DecodeReport::default(),
             pending: None,
             metadata,
+            index: None,
         }
+    }
+
+    pub(crate) fn inner(&self) -> &dyn FormatReader {
+        &*self.inner
+    }
+
+    pub(crate) fn inner_mut(&mut self) -> &mut dyn FormatReader {
+        &mut *self.inner
+    }
+
+    /// Whether seeking uses an index of the recording ([`super::index`]).
+    pub fn has_index(&self) -> bool {
+        self.index.is_some()
     }
 
     /// What the file says about itself (format, geometry, header).
@@ -104,7 +120,7 @@ impl EventReader {
     /// Skip to the first event at or after `t_us` (camera time, after any shift): jumps by the
     /// file's index where the format has one, and otherwise decodes and discards quickly.
     pub fn skip_to(&mut self, t_us: i64) -> Result<()> {
-        if self.pending.is_none() {
+        if self.pending.is_none() && !self.jump_by_index(t_us + self.shift_us)? {
             self.inner.seek_near(t_us + self.shift_us)?;
         }
         let mut batch = EventBuffer::new();
