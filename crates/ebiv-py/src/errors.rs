@@ -1,5 +1,5 @@
 //! The library's errors as Python exceptions, with the command line's messages: a bad
-//! setting is a `ValueError`, a file that cannot be opened an `OSError` (or
+//! setting is a `ValueError`, a file that cannot be opened or written an `OSError` (or
 //! `FileNotFoundError`), anything else about the data an `ebiv.EbivError`.
 
 use pyo3::create_exception;
@@ -21,7 +21,9 @@ pub fn to_py(e: ebiv::Error) -> PyErr {
         ebiv::Error::Io { source, .. } if source.kind() == std::io::ErrorKind::NotFound => {
             PyFileNotFoundError::new_err(message)
         }
-        ebiv::Error::Io { .. } | ebiv::Error::Stream(_) => PyOSError::new_err(message),
+        ebiv::Error::Io { .. } | ebiv::Error::Stream(_) | ebiv::Error::Write { .. } => {
+            PyOSError::new_err(message)
+        }
         _ => EbivError::new_err(message),
     }
 }

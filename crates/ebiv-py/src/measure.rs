@@ -21,6 +21,14 @@ use pyo3::types::{PyDict, PyString};
 use std::path::PathBuf;
 use std::sync::Arc;
 
+/// Settings of `ebiv process` that Python takes elsewhere, and where.
+const NOT_KEYWORDS: [(&str, &str); 4] = [
+    ("input", "the recording is the `source` argument"),
+    ("images", "images are the arguments of `ebiv.piv(image_a, image_b, ...)`"),
+    ("png", "figures are drawn by `ebiv process --png`; in Python, plot the dataset (see examples/wallflow.py)"),
+    ("arrow_stride", "figures are drawn by `ebiv process --png`; in Python, plot the dataset (see examples/wallflow.py)"),
+];
+
 /// Settings from keywords: a `config` file first (as `--config`), then every other keyword
 /// over it. Returns the settings, the reader options and whether `output` was given.
 fn settings_from(
@@ -41,13 +49,24 @@ fn settings_from(
         }
     }
     let output = keywords.get_item("output")?.is_some_and(|o| !o.is_none());
-    if keywords.get_item("png")?.is_some_and(|p| !p.is_none()) {
-        return Err(PyValueError::new_err(
-            "invalid parameter `png`: figures are drawn by `ebiv process --png`; in Python, plot the dataset (see examples/wallflow.py)",
-        ));
+    for (key, instead) in NOT_KEYWORDS {
+        if keywords.get_item(key)?.is_some_and(|v| !v.is_none()) {
+            return Err(PyValueError::new_err(format!(
+                "invalid parameter `{key}`: {instead}"
+            )));
+        }
     }
     apply_keywords(Some(&keywords), &mut settings, &mut options)?;
     Ok((settings, options, output))
+}
+
+/// Before any work: the field file `path` can be written (its folder exists: else
+/// `OSError`) in a format its extension names (else `ValueError` naming `parameter`).
+fn check_output(path: &std::path::Path, parameter: &str) -> PyResult<()> {
+    ebiv::export::check_output_path(path).py_err()?;
+    ebiv::export::field_extension(path)
+        .map_err(|e| PyValueError::new_err(format!("invalid parameter `{parameter}`: {e}")))?;
+    Ok(())
 }
 
 /// Issue a Python `UserWarning`.
@@ -129,6 +148,9 @@ pub fn process<'py>(
         Input::Arrays(_) => PathBuf::from("arrays"),
     });
     let run = s.resolve().py_err()?;
+    if write_output {
+        check_output(&run.output, "output")?;
+    }
     if let Source::Images(_) = run.source {
         return Err(PyValueError::new_err(
             "invalid parameter `images`: PIV of image pairs is `ebiv.piv(image_a, image_b, ...)`",
@@ -243,6 +265,9 @@ pub fn piv<'py>(
     let texts = names.iter().map(|n| n.display().to_string()).collect();
     s.images = Some(ebiv::settings::TextList(texts));
     let run = s.resolve().py_err()?;
+    if write_output {
+        check_output(&run.output, "output")?;
+    }
     let series = watched(py, progress.as_ref(), |watch| {
         let params = run.image_series_params(g)?;
         let total = if params.ensemble {
@@ -447,7 +472,7 @@ pub fn assess<'py>(
 /// NPZ, Tecplot or VTK by its extension, as `ebiv process -o` writes.
 #[pyfunction]
 pub fn write(field: &Bound<'_, PyAny>, path: PathBuf) -> PyResult<()> {
-    ebiv::export::field_extension(&path).py_err()?;
+    check_output(&path, "path")?;
     let series = series_of(field, &FieldReadOptions::default())?;
     field
         .py()

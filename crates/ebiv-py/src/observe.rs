@@ -7,6 +7,7 @@ use ebiv::process::FieldDone;
 use ebiv::settings::{RunObserver, RunPlan};
 use pyo3::prelude::*;
 use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
+use std::sync::mpsc::RecvTimeoutError;
 use std::time::Duration;
 
 /// How often the calling thread looks at signals and progress.
@@ -71,9 +72,15 @@ pub fn watched<T: Send>(
     };
     let outcome = py.detach(|| {
         std::thread::scope(|scope| {
-            let worker = scope.spawn(|| work(&watch));
-            while !worker.is_finished() {
-                std::thread::sleep(POLL);
+            let (done, finished) = std::sync::mpsc::channel::<()>();
+            let watch = &watch;
+            let worker = scope.spawn(move || {
+                let result = work(watch);
+                let _ = done.send(());
+                result
+            });
+            // Returns as soon as the work ends; looks at signals and progress meanwhile.
+            while let Err(RecvTimeoutError::Timeout) = finished.recv_timeout(POLL) {
                 look(&mut raised);
             }
             look(&mut raised);

@@ -129,3 +129,33 @@ def test_every_setting_is_listed_with_its_default():
     settings = ebiv.settings()
     assert settings["slab"]["default"] == "10ms"
     assert "max_velocity" in settings and "uncertainty" in settings
+
+
+def test_a_recording_keeps_its_reader_options(simulated, tmp_path):
+    rec = ebiv.open(simulated / "rec.raw")
+    # A CSV without a size: the reader options given to open() reach process().
+    events = rec.read(0, 15_000)
+    csv = tmp_path / "e.csv"
+    np.savetxt(csv, np.column_stack(events), fmt="%d", delimiter=",", header="t,x,y,p", comments="")
+    opened = ebiv.open(csv, geometry=(640, 480))
+    assert opened.geometry == (640, 480)
+    ds = ebiv.process(opened, window=[64, 32], slab="5ms", time="::5ms")
+    direct = ebiv.process(csv, geometry="640x480", window=[64, 32], slab="5ms", time="::5ms")
+    xr.testing.assert_identical(ds, direct)
+
+
+def test_keywords_that_belong_elsewhere_and_bad_outputs_fail_before_the_run(simulated, tmp_path):
+    rec = simulated / "rec.raw"
+    for key in ("input", "images", "png"):
+        with pytest.raises(ValueError, match=key):
+            ebiv.process(rec, **{key: "x"})
+    with pytest.raises(OSError, match="does not exist"):
+        ebiv.process(rec, output=tmp_path / "missing" / "f.nc")
+    with pytest.raises(ValueError, match="output"):
+        ebiv.process(rec, output=tmp_path / "f.xyz")
+    with pytest.raises(TypeError, match="source"):
+        ebiv.process(42)
+    with pytest.raises(ValueError, match="duration"):
+        ebiv.open(rec).chunks(duration="-1ms")
+    roi = ebiv.process(rec, roi=[0, 0, 320, 240], **SETTINGS)
+    assert float(roi.x.max()) < 320 and float(roi.y.max()) < 240

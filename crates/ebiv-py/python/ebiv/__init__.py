@@ -19,7 +19,7 @@ from __future__ import annotations
 
 import os
 import sys
-from typing import Any, Callable, Dict, Iterator, NamedTuple, Optional, Tuple, Union
+from typing import Any, Callable, Dict, Iterator, Mapping, NamedTuple, Optional, Tuple, Union
 
 import numpy as np
 
@@ -65,8 +65,14 @@ class Events(NamedTuple):
 class Recording:
     """An event recording opened by :func:`open`. Nothing is read until asked for."""
 
-    def __init__(self, native: Any) -> None:
+    def __init__(self, native: Any, reader_options: Dict[str, Any]) -> None:
         self._native = native
+        self._reader_options = dict(reader_options)
+
+    @property
+    def reader_options(self) -> Dict[str, Any]:
+        """The reader options it was opened with; :func:`process` of the recording uses them."""
+        return dict(self._reader_options)
 
     @property
     def path(self) -> str:
@@ -100,17 +106,20 @@ class Recording:
         return self._native.report
 
     def read(self, t0: Union[int, str, None] = None, t1: Union[int, str, None] = None) -> Events:
-        """The events with ``t0 <= t < t1`` (µs of camera time, or texts such as "1.5s";
-        ``None``: from the start, to the end). The arrays own their memory: no copy is made
-        after decoding."""
+        """The events with ``t0 <= t < t1``, in µs of camera time as the file stores it (the
+        scale of :attr:`time_range`; texts such as "1.5s" are µs too), ``None``: from the
+        start, to the end. Unlike the ``time`` setting of :func:`process`, which counts from
+        the first event, these are absolute. The arrays take over the decoder's buffers: no
+        copy is made after decoding. With an index (:func:`index`) a RAW file is read from
+        close to ``t0`` instead of from its start."""
         return Events(*self._native.read(t0, t1))
 
     def chunks(self, duration: Union[int, str, None] = None, count: Optional[int] = None) -> Iterator[Events]:
         """Iterate over the events in chunks of ``duration`` (µs or "10ms"; aligned to the
         first event, so a gap gives empty chunks) or of ``count`` events; neither: the
         reader's batches (about 1 MB of the file each)."""
-        for chunk in self._native.chunks(duration, count):
-            yield Events(*chunk)
+        native = self._native.chunks(duration, count)  # checks the arguments now
+        return (Events(*chunk) for chunk in native)
 
     def __iter__(self) -> Iterator[Events]:
         return self.chunks()
@@ -124,7 +133,7 @@ def open(path: PathLike, **reader_options: Any) -> Recording:  # noqa: A001 (as 
     CSV/text, NumPy, EBIV .evt). Reader options, as the command line's: ``geometry=(w, h)``,
     ``format="evt3"``, ``raw_encoding``, ``metavision_time``, ``columns``, ``time_unit``,
     ``delimiter``, ``polarity_values``."""
-    return Recording(_ebiv.open(path, **reader_options))
+    return Recording(_ebiv.open(path, **reader_options), reader_options)
 
 
 def index(path: PathLike, *, force: bool = False, **reader_options: Any) -> Optional[str]:
@@ -160,19 +169,27 @@ def _progress(progress: Progress, what: str) -> Tuple[Optional[Callable[[int, in
     return update, bar.close
 
 
-def _result(raw: Dict[str, Any], decode_times: bool) -> Any:
+def _result(raw: Mapping[str, Any], decode_times: bool) -> Any:
     if _dataset.have_xarray():
         return _dataset.to_xarray(raw, decode_times)
     return _dataset.to_dict(raw)
 
 
-def _source(source: Any) -> Any:
-    """Paths pass through; ``Events`` and tuples of arrays become a tuple ``(t, x, y, p)``."""
+def _source(source: Any, settings: Dict[str, Any]) -> Any:
+    """Paths pass through; a :class:`Recording` gives its path and its reader options (under
+    the keywords given); ``Events`` and sequences of arrays become ``(t, x, y, p)``."""
     if isinstance(source, (str, os.PathLike)) or hasattr(source, "keys"):
         return source
     if isinstance(source, Recording):
+        for key, value in source.reader_options.items():
+            settings.setdefault(key, value)
         return source.path
-    return tuple(source)
+    try:
+        return tuple(source)
+    except TypeError:
+        raise TypeError(
+            "invalid parameter `source`: give a path, a Recording, or event arrays (t, x, y, p)"
+        ) from None
 
 
 def process(
@@ -202,7 +219,8 @@ def process(
     """
     callback, close = _progress(progress, "fields")
     try:
-        raw = _ebiv.process(_source(source), method, callback, **settings)
+        source = _source(source, settings)
+        raw = _ebiv.process(source, method, callback, **settings)
     finally:
         close()
     return _result(raw, decode_times)
@@ -301,10 +319,16 @@ def examples() -> Dict[str, str]:
     return dict(_ebiv.examples())
 
 
+#: Settings of ``ebiv process`` that Python takes elsewhere: the recording is ``source``,
+#: images are the arguments of :func:`piv`, and figures are drawn with matplotlib.
+_NOT_KEYWORDS = {"input", "images", "png", "arrow_stride"}
+
+
 def settings() -> Dict[str, Dict[str, Any]]:
-    """Every setting :func:`process` takes: keyword, group, default and summary, from the
-    one schema the command line and the configuration file use."""
+    """Every setting :func:`process` and :func:`piv` take as keywords: group, default and
+    summary, from the one schema the command line and the configuration file use."""
     return {
         key: {"group": group, "default": default, "summary": summary}
         for key, group, default, summary in _ebiv.setting_names()
+        if key not in _NOT_KEYWORDS
     }

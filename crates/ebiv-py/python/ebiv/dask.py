@@ -58,7 +58,8 @@ def shards(
     span = _ebiv.duration_us("shard", shard)
     if span <= 0:
         raise ValueError("invalid parameter `shard`: must be positive")
-    plan = _ebiv.plan(os.fspath(recording), method, **settings)
+    recording = os.path.abspath(os.fspath(recording))
+    plan = _ebiv.plan(recording, method, **settings)
     times = np.asarray(plan["times"], dtype=np.int64)
     origin = int(plan["time_origin_us"])
     step = int(times[1] - times[0]) if len(times) > 1 else 1
@@ -69,7 +70,7 @@ def shards(
         end = max(end, start + 1)
         first, last = int(times[start]), int(times[end - 1])
         spec = f"{first - origin}us:{last - origin}us:{step}us"
-        out.append(Shard(os.fspath(recording), len(out), spec, end - start, first, last))
+        out.append(Shard(recording, len(out), spec, end - start, first, last))
         start = end
     return out
 
@@ -121,7 +122,10 @@ def process(
     """
     client = _client(client)
     single = isinstance(recordings, (str, os.PathLike))
-    paths = [os.fspath(recordings)] if single else [os.fspath(r) for r in recordings]
+    # Absolute paths: workers resolve them in their own working folders.
+    paths = [os.path.abspath(os.fspath(r)) for r in ([recordings] if single else recordings)]
+    if output_dir is not None:
+        output_dir = os.path.abspath(os.fspath(output_dir))
     settings = {k: v for k, v in settings.items() if k != "time" or v is not None}
     for path in paths:
         # Built once here, used by every worker that opens the file (beside it, or in the
@@ -147,7 +151,10 @@ def process(
             results[path] = _write_index(path, parts, gathered, os.fspath(output_dir))
         else:
             results[path] = _join(gathered, decode_times)
-    return results[paths[0]] if single else results
+    if single:
+        return results[paths[0]]
+    given = [os.fspath(r) for r in recordings]
+    return {name: results[path] for name, path in zip(given, paths)}
 
 
 def _join(datasets: List[Any], decode_times: bool) -> Any:

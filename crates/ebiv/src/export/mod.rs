@@ -57,6 +57,33 @@ pub fn write_field(field: &FieldSeries, path: &Path) -> Result<()> {
     }
 }
 
+/// Check, before any work, that `path` can be written: its folder exists and is a folder, and
+/// the path itself is not a folder. A run that would fail only when it writes its result fails
+/// here instead, before the processing.
+pub fn check_output_path(path: &Path) -> Result<()> {
+    let what = path.display().to_string();
+    if path.is_dir() {
+        return Err(crate::Error::Write {
+            what,
+            message: "it is a folder; give a file name".into(),
+        });
+    }
+    let folder = match path.parent() {
+        Some(p) if !p.as_os_str().is_empty() => p,
+        _ => Path::new("."),
+    };
+    if !folder.is_dir() {
+        return Err(crate::Error::Write {
+            what,
+            message: format!(
+                "the folder `{}` does not exist (create it first, or choose another output)",
+                folder.display()
+            ),
+        });
+    }
+    Ok(())
+}
+
 /// The lower-case extension of `path` if [`write_field`] knows it (one of
 /// [`FIELD_EXTENSIONS`]), else an error listing the known ones: a caller checks its output
 /// with it before the work that produces the field.

@@ -383,6 +383,21 @@ impl SettingValue for Roi {
         })
     }
 
+    /// `"X,Y,W,H"`, or the array `[x, y, w, h]`.
+    fn from_toml(value: &Value) -> Result<Self, String> {
+        match value {
+            Value::String(s) => Self::from_text(s),
+            Value::Array(items) if items.iter().all(Value::is_integer) => Self::from_text(
+                &items
+                    .iter()
+                    .map(ToString::to_string)
+                    .collect::<Vec<_>>()
+                    .join(","),
+            ),
+            other => Err(format!("`{other}` is not \"X,Y,W,H\" or [x, y, w, h]")),
+        }
+    }
+
     fn to_toml(&self) -> Option<Value> {
         Some(Value::String(format!(
             "{},{},{},{}",
@@ -528,6 +543,15 @@ mod tests {
             Ok(Duration(3000))
         );
         assert!(Duration::from_toml(&Value::Boolean(true)).is_err());
+    }
+
+    #[test]
+    fn regions_are_text_or_an_array() {
+        let text = Roi::from_toml(&Value::String("10,20,300,200".into())).unwrap();
+        let ints = |v: &[i64]| Value::Array(v.iter().map(|&i| Value::Integer(i)).collect());
+        assert_eq!(Roi::from_toml(&ints(&[10, 20, 300, 200])), Ok(text));
+        assert!(Roi::from_toml(&ints(&[10, 20, 300])).is_err());
+        assert!(Roi::from_toml(&Value::Array(vec![Value::Float(1.5)])).is_err());
     }
 
     #[test]
