@@ -8,7 +8,7 @@ use crate::estimate::Estimator;
 use crate::event::{EventBuffer, Geometry};
 use crate::field::FieldSeries;
 use crate::frame::pulse::detect_pulses;
-use crate::piv::{piv_events, EventPivParams, FrameClock};
+use crate::piv::{piv_events, FrameClock};
 use crate::process::{process_recording, MemorySource, Method, ProcessParams};
 
 /// `n` field times spread evenly over `[first_us, last_us]` (the span a recording leaves
@@ -82,13 +82,7 @@ impl Resolved {
                         step_us: self.frame_step_us,
                     }
                 };
-                let params = EventPivParams {
-                    frames: self.frames,
-                    clock,
-                    pairs: self.pairs,
-                    piv: self.piv.clone(),
-                };
-                params.check()?;
+                let params = self.event_piv_params(clock)?;
                 let times = times_for(params.time_extent_us())?;
                 let delay = params.plan(times[0]).dt_us / 1000.0;
                 let mut source = MemorySource::new(events);

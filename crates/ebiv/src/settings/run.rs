@@ -71,6 +71,12 @@ impl Resolved {
         source: &EventSource,
         observer: &mut dyn RunObserver,
     ) -> Result<Measurement> {
+        if let super::Source::Images(_) = self.source {
+            return Err(Error::parameter(
+                "images",
+                "image pairs are measured by PIV of images (`ebiv process --images`, Python's `ebiv.piv`), not as a recording",
+            ));
+        }
         let (mut series, summary, report, planned, polarity) = match self.method {
             Method::CorrSum | Method::Motion => self.with_event_estimator(EventRun {
                 run: self,
@@ -123,6 +129,11 @@ impl Resolved {
                 step_us: self.frame_step_us,
             }
         };
+        self.event_piv_params(clock)
+    }
+
+    /// The parameters of PIV of frames rebuilt from events by `clock`, checked.
+    pub(super) fn event_piv_params(&self, clock: FrameClock) -> Result<EventPivParams> {
         let params = EventPivParams {
             frames: self.frames,
             clock,
@@ -244,7 +255,8 @@ impl EstimatorTask for EventRun<'_> {
         } = self;
         let extent_us = estimator.planning_extent_us();
         let mut planned = run.plan_fields(source, extent_us, run.slab_us())?;
-        skip_to_first_field(&mut planned, extent_us.0)?;
+        // The longest slab's extent: with slabs per window, longer than the planning one.
+        skip_to_first_field(&mut planned, estimator.time_extent_us().0)?;
         let g = planned.geometry;
         let mut params = run.process.clone();
         params.mask = run.mask_for(g)?;
