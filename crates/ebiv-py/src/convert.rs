@@ -118,27 +118,39 @@ pub fn events_from_arrays<'py>(
     p: &Bound<'py, PyAny>,
 ) -> PyResult<EventBuffer> {
     let np = t.py().import("numpy")?;
-    let column = |name: &str, a: &Bound<'_, PyAny>, dtype: &str, max: f64| -> PyResult<()> {
+    // Integers only: a float time (seconds?) or coordinate would be truncated silently, and
+    // NaN passes any range check.
+    let column = |name: &str, a: &Bound<'_, PyAny>, what: &str, range: (i128, i128)| {
         let a = np.call_method1("asarray", (a,))?;
         if a.getattr("ndim")?.extract::<usize>()? != 1 {
             return Err(PyValueError::new_err(format!(
                 "invalid parameter `{name}`: events are 1-D arrays"
             )));
         }
+        let kind: String = a.getattr("dtype")?.getattr("kind")?.extract()?;
+        if !matches!(kind.as_str(), "i" | "u" | "b") {
+            return Err(PyValueError::new_err(format!(
+                "invalid parameter `{name}`: {what} as integers, not {}",
+                a.getattr("dtype")?.str()?
+            )));
+        }
         if a.getattr("size")?.extract::<usize>()? > 0 {
-            let lo: f64 = a.call_method0("min")?.extract()?;
-            let hi: f64 = a.call_method0("max")?.extract()?;
-            if lo < 0.0 || hi > max {
+            // Python integers: exact for every integer type, unlike floats.
+            let int = |v: Bound<'_, PyAny>| v.call_method0("__index__")?.extract::<i128>();
+            let lo = int(a.call_method0("min")?)?;
+            let hi = int(a.call_method0("max")?)?;
+            if lo < range.0 || hi > range.1 {
                 return Err(PyValueError::new_err(format!(
-                    "invalid parameter `{name}`: values {lo}..{hi} outside 0..={max} ({dtype})"
+                    "invalid parameter `{name}`: values {lo}..{hi} outside the range of {what}"
                 )));
             }
         }
-        Ok(())
+        Ok::<(), PyErr>(())
     };
-    column("x", x, "uint16", u16::MAX as f64)?;
-    column("y", y, "uint16", u16::MAX as f64)?;
-    column("p", p, "0 or 1", 1.0)?;
+    column("t", t, "µs (int64)", (i64::MIN as i128, i64::MAX as i128))?;
+    column("x", x, "pixels (0..=65535)", (0, u16::MAX as i128))?;
+    column("y", y, "pixels (0..=65535)", (0, u16::MAX as i128))?;
+    column("p", p, "polarities (0 or 1)", (0, 1))?;
     let as_type = |a: &Bound<'py, PyAny>, dtype: &str| -> PyResult<Bound<'py, PyAny>> {
         np.call_method1("ascontiguousarray", (a, dtype))
     };

@@ -30,7 +30,8 @@ const NOT_KEYWORDS: [(&str, &str); 4] = [
 ];
 
 /// Settings from keywords: a `config` file first (as `--config`), then every other keyword
-/// over it. Returns the settings, the reader options and whether `output` was given.
+/// over it. Returns the settings, the reader options and whether to write `output` (given
+/// as a keyword, or by the configuration file, as the command writes it).
 fn settings_from(
     py: Python<'_>,
     keywords: Option<&Bound<'_, PyDict>>,
@@ -41,14 +42,25 @@ fn settings_from(
         return Ok((settings, options, false));
     };
     let keywords = keywords.copy()?;
+    let mut write_output = false;
     if let Some(config) = keywords.get_item("config")? {
         keywords.del_item("config")?;
         let path: PathBuf = config.extract()?;
         for warning in settings.apply_file(&path).py_err()? {
             warn(py, &format!("{}: {warning}", path.display()))?;
         }
+        write_output = settings.output != ProcessSettings::default().output;
+        if let Some(png) = settings.png.take() {
+            warn(
+                py,
+                &format!(
+                    "{}: png = {} is left out: figures are drawn by `ebiv process --png`",
+                    path.display(),
+                    png.display()
+                ),
+            )?;
+        }
     }
-    let output = keywords.get_item("output")?.is_some_and(|o| !o.is_none());
     for (key, instead) in NOT_KEYWORDS {
         if keywords.get_item(key)?.is_some_and(|v| !v.is_none()) {
             return Err(PyValueError::new_err(format!(
@@ -56,8 +68,9 @@ fn settings_from(
             )));
         }
     }
+    write_output |= keywords.get_item("output")?.is_some_and(|o| !o.is_none());
     apply_keywords(Some(&keywords), &mut settings, &mut options)?;
-    Ok((settings, options, output))
+    Ok((settings, options, write_output))
 }
 
 /// Before any work: the field file `path` can be written (its folder exists: else
@@ -66,6 +79,16 @@ fn check_output(path: &std::path::Path, parameter: &str) -> PyResult<()> {
     ebiv::export::check_output_path(path).py_err()?;
     ebiv::export::field_extension(path)
         .map_err(|e| PyValueError::new_err(format!("invalid parameter `{parameter}`: {e}")))?;
+    Ok(())
+}
+
+/// Set the method when given; else it stays the configuration file's, or the default.
+fn set_method(settings: &mut ProcessSettings, method: Option<&str>) -> PyResult<()> {
+    if let Some(method) = method {
+        settings
+            .set("method", &toml::Value::String(method.into()))
+            .py_err()?;
+    }
     Ok(())
 }
 
@@ -131,17 +154,19 @@ fn input_of(source: &Bound<'_, PyAny>) -> PyResult<Input> {
 /// event method, with the settings of `ebiv process` as keywords. Returns the NetCDF
 /// dataset structure; `output=` also writes the file, as the command does.
 #[pyfunction]
-#[pyo3(signature = (source, method="corrsum", progress=None, **settings))]
+///
+/// `shard=True` (for `ebiv.dask`): fields without events are gaps even when all are.
+#[pyo3(signature = (source, method=None, progress=None, shard=false, **settings))]
 pub fn process<'py>(
     py: Python<'py>,
     source: &Bound<'py, PyAny>,
-    method: &str,
+    method: Option<&str>,
     progress: Option<Py<PyAny>>,
+    shard: bool,
     settings: Option<&Bound<'py, PyDict>>,
 ) -> PyResult<Bound<'py, PyDict>> {
     let (mut s, options, write_output) = settings_from(py, settings)?;
-    s.set("method", &toml::Value::String(method.into()))
-        .py_err()?;
+    set_method(&mut s, method)?;
     let input = input_of(source)?;
     s.input = Some(match &input {
         Input::Path(p) => p.clone(),
@@ -165,7 +190,11 @@ pub fn process<'py>(
         },
     };
     let measured = watched(py, progress.as_ref(), |watch| {
-        let measured = run.measure(&events, &mut FieldWatch(watch))?;
+        let measured = if shard {
+            run.measure_part(&events, &mut FieldWatch(watch))?
+        } else {
+            run.measure(&events, &mut FieldWatch(watch))?
+        };
         if write_output {
             ebiv::export::write_field(&measured.series, &run.output)?;
         }
@@ -181,16 +210,15 @@ pub fn process<'py>(
 /// times (µs of camera time), the time they count from, the events a field needs before
 /// and after its time, µs, and the sensor size. `ebiv.dask` splits runs into shards by it.
 #[pyfunction]
-#[pyo3(signature = (source, method="corrsum", **settings))]
+#[pyo3(signature = (source, method=None, **settings))]
 pub fn plan<'py>(
     py: Python<'py>,
     source: PathBuf,
-    method: &str,
+    method: Option<&str>,
     settings: Option<&Bound<'py, PyDict>>,
 ) -> PyResult<Bound<'py, PyDict>> {
     let (mut s, options, _) = settings_from(py, settings)?;
-    s.set("method", &toml::Value::String(method.into()))
-        .py_err()?;
+    set_method(&mut s, method)?;
     s.input = Some(source.clone());
     let run = s.resolve().py_err()?;
     let events = EventSource::file(source, &options);

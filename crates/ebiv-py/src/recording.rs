@@ -21,20 +21,7 @@ use std::sync::Mutex;
 #[pyfunction]
 #[pyo3(signature = (path, **reader_options))]
 pub fn open(path: PathBuf, reader_options: Option<&Bound<'_, PyDict>>) -> PyResult<Recording> {
-    let mut options = ReadOptions::default();
-    let mut unused = ProcessSettings::default();
-    if let Some(keywords) = reader_options {
-        for key in keywords.keys() {
-            let key = crate::convert::kebab(&key.extract::<String>()?);
-            if !ebiv::io::READ_OPTIONS.contains(&key.as_str()) {
-                return Err(PyValueError::new_err(format!(
-                    "invalid parameter `{key}`: not a reader option; they are {}",
-                    ebiv::io::READ_OPTIONS.join(", ")
-                )));
-            }
-        }
-    }
-    apply_keywords(reader_options, &mut unused, &mut options)?;
+    let options = read_options(reader_options)?;
     let reader = ebiv::io::open(&path, &options).py_err()?;
     Ok(Recording {
         metadata: reader.metadata().clone(),
@@ -55,22 +42,35 @@ pub fn index(
     force: bool,
     reader_options: Option<&Bound<'_, PyDict>>,
 ) -> PyResult<Option<PathBuf>> {
-    let mut options = ReadOptions::default();
-    apply_keywords(
-        reader_options,
-        &mut ProcessSettings::default(),
-        &mut options,
-    )?;
+    let options = read_options(reader_options)?;
     watched(py, None, |_| {
+        if !ebiv::io::index::indexable(&path, &options)? {
+            return Ok(None);
+        }
         if force {
-            return match ebiv::io::index::build_index(&path, &options) {
-                Ok(index) => ebiv::io::index::write_index(&path, &index).map(Some),
-                Err(ebiv::Error::Unsupported { .. }) => Ok(None),
-                Err(e) => Err(e),
-            };
+            let index = ebiv::io::index::build_index(&path, &options)?;
+            return ebiv::io::index::write_index(&path, &index).map(Some);
         }
         Ok(ebiv::io::index::ensure_index(&path, &options)?.map(|(_, file)| file))
     })
+}
+
+/// Reader options from keywords, any other keyword a `ValueError`.
+fn read_options(keywords: Option<&Bound<'_, PyDict>>) -> PyResult<ReadOptions> {
+    let mut options = ReadOptions::default();
+    if let Some(keywords) = keywords {
+        for key in keywords.keys() {
+            let key = crate::convert::kebab(&key.extract::<String>()?);
+            if !ebiv::io::READ_OPTIONS.contains(&key.as_str()) {
+                return Err(PyValueError::new_err(format!(
+                    "invalid parameter `{key}`: not a reader option; they are {}",
+                    ebiv::io::READ_OPTIONS.join(", ")
+                )));
+            }
+        }
+    }
+    apply_keywords(keywords, &mut ProcessSettings::default(), &mut options)?;
+    Ok(options)
 }
 
 /// What one pass over the whole recording finds.
@@ -226,9 +226,9 @@ impl Recording {
         Ok(events_to_py(py, events))
     }
 
-    /// Iterate over the events in chunks of `duration` (µs, or a text such as "10ms"; chunks
-    /// start at the first event and are aligned to it) or of `count` events; neither: the
-    /// reader's own batches. Each chunk is `(t, x, y, p)` as [`read`](Self::read) returns.
+    /// Iterate over the events in chunks of `duration` (µs, or a text such as "10ms"; windows
+    /// aligned to the first event, those without events skipped) or of `count` events;
+    /// neither: the reader's own batches. Each chunk is `(t, x, y, p)` as [`read`](Self::read) returns.
     #[pyo3(signature = (duration=None, count=None))]
     fn chunks(
         &self,
@@ -349,11 +349,20 @@ impl ChunkState {
                     Some(&first) => {
                         let start = *self.next_start.get_or_insert(first);
                         let end = start.saturating_add(d);
-                        let cut = self.pending.t.iter().position(|&t| t >= end);
-                        if cut.is_some() {
-                            self.next_start = Some(end);
+                        match self.pending.t.iter().position(|&t| t >= end) {
+                            Some(0) => {
+                                // A gap: on to the window of the next event, not through
+                                // every empty window before it.
+                                let skip = first.saturating_sub(start) / d * d;
+                                self.next_start = Some(start.saturating_add(skip));
+                                continue;
+                            }
+                            Some(cut) => {
+                                self.next_start = Some(end);
+                                Some(cut)
+                            }
+                            None => None,
                         }
-                        cut
                     }
                 },
             };

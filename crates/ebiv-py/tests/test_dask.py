@@ -17,6 +17,16 @@ SETTINGS = {"window": [48, 32], "slab": "5ms", "time": "::2ms"}
 
 
 @pytest.fixture(scope="module")
+def recording(simulated, tmp_path_factory):
+    """A copy of the session's recording: the index ebiv.dask writes beside it stays here."""
+    import shutil
+
+    path = tmp_path_factory.mktemp("dask") / "rec.raw"
+    shutil.copy(simulated / "rec.raw", path)
+    return path
+
+
+@pytest.fixture(scope="module")
 def client():
     cluster = distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True,
                                        host="127.0.0.1", dashboard_address=None)
@@ -25,16 +35,16 @@ def client():
     cluster.close()
 
 
-def test_shards_cover_every_field_once(simulated):
-    whole = ebiv.process(simulated / "rec.raw", **SETTINGS)
-    parts = ebiv.dask.shards(simulated / "rec.raw", shard="7ms", **SETTINGS)
+def test_shards_cover_every_field_once(recording):
+    whole = ebiv.process(recording, **SETTINGS)
+    parts = ebiv.dask.shards(recording, shard="7ms", **SETTINGS)
     assert len(parts) > 2
     assert sum(s.fields for s in parts) == whole.sizes["time"]
     assert all(a.last_us < b.first_us for a, b in zip(parts, parts[1:]))
 
 
-def test_sharded_equals_single_process(simulated, client):
-    rec = simulated / "rec.raw"
+def test_sharded_equals_single_process(recording, client):
+    rec = recording
     whole = ebiv.process(rec, **SETTINGS)
     sharded = ebiv.dask.process(rec, client=client, shard="7ms", **SETTINGS)
     xr.testing.assert_identical(sharded, whole)
@@ -42,8 +52,8 @@ def test_sharded_equals_single_process(simulated, client):
     xr.testing.assert_identical(both[str(rec)], ebiv.process(rec, method="motion", **SETTINGS))
 
 
-def test_shards_written_to_files_with_an_index(simulated, client, tmp_path):
-    rec = simulated / "rec.raw"
+def test_shards_written_to_files_with_an_index(recording, client, tmp_path):
+    rec = recording
     index = ebiv.dask.process(rec, client=client, shard="7ms", output_dir=tmp_path, **SETTINGS)
     entries = json.loads(open(index).read())["shards"]
     files = [xr.open_dataset(tmp_path / e["file"]).load() for e in entries]
@@ -51,11 +61,25 @@ def test_shards_written_to_files_with_an_index(simulated, client, tmp_path):
     xr.testing.assert_identical(joined, ebiv.process(rec, **SETTINGS))
 
 
-def test_bad_shard_lengths_are_refused(simulated):
+def test_bad_shard_lengths_and_settings_are_refused(recording, client):
     with pytest.raises(ValueError, match="shard"):
-        ebiv.dask.shards(simulated / "rec.raw", shard="0ms")
+        ebiv.dask.shards(recording, shard="0ms")
     with pytest.raises(ValueError, match="shard"):
-        ebiv.dask.shards(simulated / "rec.raw", shard="soon")
+        ebiv.dask.shards(recording, shard="soon")
+    with pytest.raises(ValueError, match="output_dir"):
+        ebiv.dask.process(recording, client=client, output="x.nc")
+    with pytest.raises(ValueError, match="pulsed"):
+        ebiv.dask.process(recording, "pulsed", client=client)
+
+
+def test_a_shard_without_events_is_gaps_not_an_error(recording):
+    beyond = {"window": [48, 32], "slab": "5ms", "time": "100ms:110ms:5ms"}
+    with pytest.raises(ebiv.EbivError, match="no event"):
+        ebiv.process(recording, **beyond)
+    with pytest.warns(UserWarning, match="no event"):
+        raw = ebiv._ebiv.process(str(recording), None, None, True, **beyond)
+    u = next(a for name, _, a, _ in raw["variables"] if name == "u")
+    assert u.shape[0] == 3 and np.isnan(u).all()
 
 
 def test_the_index_is_built_once_and_used(simulated, tmp_path):

@@ -28,7 +28,7 @@ def test_equals_the_command_line(simulated, cli, tmp_path, method):
 
 def test_a_config_file_and_keywords_combine_as_on_the_command_line(simulated, cli, tmp_path):
     config = tmp_path / "ebiv.toml"
-    config.write_text('window = [48, 32]\nslab = "5ms"\nmax-velocity = 8.0\n')
+    config.write_text('window = [48, 32]\nslab = "5ms"\nmax-velocity = 8.0\nmethod = "motion"\n')
     rec = simulated / "rec.raw"
     cli("process", rec, "--config", config, "--time", "::5ms", "--no-uncertainty",
         "-o", tmp_path / "cli.nc")
@@ -37,7 +37,12 @@ def test_a_config_file_and_keywords_combine_as_on_the_command_line(simulated, cl
     expected = xr.open_dataset(tmp_path / "cli.nc").load()
     xr.testing.assert_identical(ds, expected)
     xr.testing.assert_identical(xr.open_dataset(tmp_path / "py.nc").load(), expected)
-    assert np.isnan(ds.u_unc).all()
+    assert np.isnan(ds.u_unc).all() and ds.attrs["method"] == "motion"
+    # The file's output is written, as the command writes it.
+    with_output = tmp_path / "with_output.toml"
+    with_output.write_text(config.read_text() + f'output = "{tmp_path / "from_config.nc"}"\n')
+    ebiv.process(rec, config=with_output, time="::5ms", uncertainty=False)
+    xr.testing.assert_identical(xr.open_dataset(tmp_path / "from_config.nc").load(), expected)
 
 
 def test_event_arrays_give_the_fields_of_the_file(simulated):
@@ -75,15 +80,18 @@ def test_an_exception_in_the_progress_callback_stops_the_run(simulated):
 
 
 def test_ctrl_c_interrupts_a_long_run(simulated):
-    # Many fields of a slow method: seconds of work, interrupted after 0.3 s.
-    timer = threading.Timer(0.3, _thread.interrupt_main)
-    started = time.monotonic()
-    timer.start()
+    # Ctrl-C arrives at the first field of a run of many: the run stops there.
+    fields = []
+
+    def interrupt(done, total):
+        fields.append(done)
+        if len(fields) == 1:
+            _thread.interrupt_main()
+
     with pytest.raises(KeyboardInterrupt):
         ebiv.process(simulated / "rec.raw", method="motion", time="::200us", slab="5ms",
-                     window=[32, 16])
-    assert time.monotonic() - started < 5.0
-    timer.cancel()
+                     window=[32, 16], progress=interrupt)
+    assert fields[-1] < fields[0] + 10 < 150
 
 
 def test_the_gil_is_released_while_measuring(simulated):
@@ -103,8 +111,8 @@ def test_the_gil_is_released_while_measuring(simulated):
     stop.set()
     thread.join()
     during = [t for t in ticks if started <= t <= started + elapsed]
-    # A held GIL would starve the thread for the whole call.
-    assert len(during) >= max(2, int(elapsed / 0.005 * 0.3))
+    # A held GIL would starve the thread for the whole call (about a second of work).
+    assert elapsed > 0.2 and len(during) >= 5
 
 
 def test_settings_errors_are_the_command_line_messages(simulated, cli):
@@ -120,7 +128,7 @@ def test_settings_errors_are_the_command_line_messages(simulated, cli):
     with pytest.raises(FileNotFoundError):
         ebiv.process(rec.with_name("nothing.raw"))
     with pytest.raises(ValueError, match="length"):
-        ebiv.process((np.zeros(3), np.zeros(2), np.zeros(3), np.zeros(3)))
+        ebiv.process(tuple(np.zeros(n, dtype=np.int64) for n in (3, 2, 3, 3)))
     with pytest.raises(ValueError, match="png"):
         ebiv.process(rec, png="figures")
 

@@ -64,9 +64,10 @@ def test_reading_between_times_and_in_chunks(data):
     assert all(len(c.t) == 10_000 for c in by_count[:-1])
     np.testing.assert_array_equal(np.concatenate([c.t for c in by_count]), everything.t)
     by_time = list(rec.chunks(duration="10ms"))
-    for k, c in enumerate(by_time):
-        if len(c.t):
-            assert c.t.min() >= t0 + k * 10_000 and c.t.max() < t0 + (k + 1) * 10_000
+    windows = [(c.t.min() - t0) // 10_000 for c in by_time]
+    assert all(len(c.t) for c in by_time) and windows == sorted(set(windows))
+    for k, c in zip(windows, by_time):
+        assert (c.t.max() - t0) // 10_000 == k  # within one aligned window
     assert sum(len(c.t) for c in by_time) == len(everything.t)
     assert sum(len(c.t) for c in rec) == len(everything.t)
 
@@ -86,3 +87,24 @@ def test_bad_input_gives_the_command_line_messages(tmp_path, cli, data):
         ebiv.open(data("prophesee/evt2_sample.raw"), window=3)
     with pytest.raises(ValueError, match="duration"):
         list(ebiv.open(data("prophesee/evt2_sample.raw")).chunks(duration="-1ms"))
+
+
+def test_chunks_by_time_skip_gaps(tmp_path):
+    csv = tmp_path / "gap.csv"
+    csv.write_text("t,x,y,p\n0,1,1,1\n5,2,2,0\n1000000,3,3,1\n1000003,4,4,1\n")
+    chunks = list(ebiv.open(csv).chunks(duration="1ms"))
+    assert [list(c.t) for c in chunks] == [[0, 5], [1_000_000, 1_000_003]]
+
+
+def test_event_arrays_must_be_integers(simulated):
+    t = np.arange(10, dtype=np.int64)
+    xy = np.zeros(10, dtype=np.uint16)
+    p = np.ones(10, dtype=np.uint8)
+    with pytest.raises(ValueError, match="integers"):
+        ebiv.process((t / 1e6, xy, xy, p))
+    with pytest.raises(ValueError, match="integers"):
+        ebiv.process((t, xy.astype(float), xy, p))
+    with pytest.raises(ValueError, match="range"):
+        ebiv.process((t.astype(np.uint64) + np.uint64(2**63), xy, xy, p))
+    with pytest.raises(ValueError, match="range"):
+        ebiv.process((t, xy, xy, p * 2))

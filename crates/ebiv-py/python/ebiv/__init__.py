@@ -115,8 +115,8 @@ class Recording:
         return Events(*self._native.read(t0, t1))
 
     def chunks(self, duration: Union[int, str, None] = None, count: Optional[int] = None) -> Iterator[Events]:
-        """Iterate over the events in chunks of ``duration`` (µs or "10ms"; aligned to the
-        first event, so a gap gives empty chunks) or of ``count`` events; neither: the
+        """Iterate over the events in chunks of ``duration`` (µs or "10ms"; windows aligned to
+        the first event, those without events skipped) or of ``count`` events; neither: the
         reader's batches (about 1 MB of the file each)."""
         native = self._native.chunks(duration, count)  # checks the arguments now
         return (Events(*chunk) for chunk in native)
@@ -194,7 +194,7 @@ def _source(source: Any, settings: Dict[str, Any]) -> Any:
 
 def process(
     source: Union[PathLike, Events, Tuple[Any, Any, Any, Any], Dict[str, Any]],
-    method: str = "corrsum",
+    method: Optional[str] = None,
     *,
     progress: Progress = None,
     decode_times: bool = True,
@@ -204,8 +204,8 @@ def process(
 
     ``source``: a path (or a :class:`Recording`), or events as arrays ``(t, x, y, p)``
     (pass ``geometry=(w, h)`` when the largest coordinates are not the sensor's size).
-    ``method``: ``corrsum``, ``motion``, ``piv`` (frames rebuilt from the events) or
-    ``pulsed``. ``settings``: any setting of ``ebiv process`` or of its configuration file,
+    ``method``: ``corrsum`` (the default), ``motion``, ``piv`` (frames rebuilt from the
+    events) or ``pulsed``; ``None`` leaves it to ``config``. ``settings``: any setting of ``ebiv process`` or of its configuration file,
     with ``_`` for ``-`` (``slab="5ms"``, ``window=[64, 32]``, ``time="::5ms"``,
     ``uncertainty=False``), ``config="ebiv.toml"`` to start from a file, reader options such as
     ``geometry``, and ``output="flow.nc"`` to write the file as well. :func:`settings` lists

@@ -71,7 +71,9 @@ def _time_values(values: np.ndarray, attrs: dict, encoding: dict) -> np.ndarray:
     if np.issubdtype(values.dtype, np.datetime64):
         attrs.setdefault("units", encoding.get("units", TIME_UNITS))
         attrs.setdefault("calendar", encoding.get("calendar", "proleptic_gregorian"))
-        return (values - np.datetime64("1970-01-01T00:00:00", "us")) / np.timedelta64(1, "us")
+        # Integer µs first: through a float division, µs of the Unix epoch lose their last
+        # digits.
+        return values.astype("datetime64[us]").astype(np.int64).astype(np.float64)
     return values
 
 

@@ -129,13 +129,15 @@ def duration_us(name: str, value: _Duration) -> int:
 
 def process(
     source: _Source,
-    method: str = "corrsum",
+    method: Optional[str] = None,
     progress: _Progress = None,
+    shard: bool = False,
     **settings: Any,
 ) -> _RawDataset:
-    """Velocity fields of a recording or event arrays with ``ebiv process``'s settings as keywords."""
+    """Velocity fields of a recording or event arrays with ``ebiv process``'s settings as keywords
+    (``shard=True``: fields without events are gaps even when all are)."""
 
-def plan(source: _StrPath, method: str = "corrsum", **settings: Any) -> _Plan:
+def plan(source: _StrPath, method: Optional[str] = None, **settings: Any) -> _Plan:
     """The field times and extent of a ``process`` run over ``source``, without measuring."""
 
 def piv(

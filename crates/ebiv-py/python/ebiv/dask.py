@@ -23,6 +23,7 @@ from __future__ import annotations
 
 import json
 import os
+import warnings
 from typing import Any, Dict, List, NamedTuple, Optional, Sequence, Union
 
 import numpy as np
@@ -48,7 +49,7 @@ class Shard(NamedTuple):
 
 def shards(
     recording: PathLike,
-    method: str = "corrsum",
+    method: Optional[str] = None,
     *,
     shard: Union[int, str] = "1s",
     **settings: Any,
@@ -75,15 +76,20 @@ def shards(
     return out
 
 
-def _measure(shard: Shard, method: str, settings: Dict[str, Any], output: Optional[str]) -> Any:
-    """Run one shard on a worker: the raw dataset structure, or the path written."""
-    from . import process as ebiv_process
+def _measure(shard: Shard, method: Optional[str], settings: Dict[str, Any], output: Optional[str]) -> Any:
+    """Run one shard on a worker: its dataset (times undecoded), or the path written. A shard
+    whose fields hold no event at all gives gaps, as those fields do in a whole run."""
+    from . import _result, _source
 
     settings = dict(settings, time=shard.time)
     if output is not None:
         settings["output"] = output
-    ds = ebiv_process(shard.recording, method, decode_times=False, **settings)
-    return output if output is not None else ds
+    raw = _ebiv.process(_source(shard.recording, settings), method, None, True, **settings)
+    return output if output is not None else _result(raw, False)
+
+
+#: Settings that name files.
+_PATH_SETTINGS = ("config", "mask")
 
 
 def _reader_options(settings: Dict[str, Any]) -> Dict[str, Any]:
@@ -101,7 +107,7 @@ def _client(client: Any) -> Any:
 
 def process(
     recordings: Union[PathLike, Sequence[PathLike]],
-    method: str = "corrsum",
+    method: Optional[str] = None,
     *,
     client: Any = None,
     shard: Union[int, str] = "1s",
@@ -120,6 +126,16 @@ def process(
     index ``NAME_shards.json`` (files, time ranges and field counts in time order), and the
     index paths are returned.
     """
+    if settings.get("output") is not None:
+        raise ValueError("invalid parameter `output`: give output_dir; each shard writes its own file")
+    if (method or "") == "pulsed":
+        raise ValueError(
+            "invalid parameter `method`: pulsed runs find their pulse timing from the start of "
+            "their time span, which differs between shards; measure them with ebiv.process"
+        )
+    for key in _PATH_SETTINGS:  # workers resolve paths in their own working folders
+        if settings.get(key) is not None:
+            settings[key] = os.path.abspath(os.fspath(settings[key]))
     client = _client(client)
     single = isinstance(recordings, (str, os.PathLike))
     # Absolute paths: workers resolve them in their own working folders.
@@ -130,7 +146,11 @@ def process(
     for path in paths:
         # Built once here, used by every worker that opens the file (beside it, or in the
         # index cache of a shared home); a no-op where it exists or the format needs none.
-        _ebiv.index(path, False, **_reader_options(settings))
+        # Without it the shards are the same, only slower to reach their start.
+        try:
+            _ebiv.index(path, False, **_reader_options(settings))
+        except OSError as e:
+            warnings.warn(f"{path}: no index ({e}); shards decode the file from its start")
     plans = {p: shards(p, method, shard=shard, **settings) for p in paths}
     settings.pop("time", None)
     futures = {}

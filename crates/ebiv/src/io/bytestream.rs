@@ -51,6 +51,8 @@ pub(crate) struct WordStreamReader<D: WordDecoder> {
     carry: usize,
     /// File offset of `buf[0]`.
     offset: u64,
+    /// File offset of the first word, after the header.
+    body_offset: u64,
     done: bool,
 }
 
@@ -74,6 +76,7 @@ impl<D: WordDecoder> WordStreamReader<D> {
             buf: vec![0; chunk],
             carry: 0,
             offset: body_offset,
+            body_offset,
             done: false,
         }
     }
@@ -147,14 +150,36 @@ impl<D: WordDecoder> FormatReader for WordStreamReader<D> {
         })
     }
 
+    /// Resumes only at a word boundary of the file's body, with a state whose numbers stay far
+    /// from overflowing (a damaged index file is an error, never a panic or a wrapped time).
     fn resume(&mut self, point: &ResumePoint) -> Result<()> {
-        self.decoder.restore(&point.state).ok_or_else(|| {
+        let mismatch = || {
             Error::corrupt(
                 &self.context,
                 point.offset,
-                "the recording's index does not match the file (rebuild it with `ebiv index`)",
+                "the recording's index does not match the file (rebuild it with `ebiv index --force`)",
             )
-        })?;
+        };
+        let size = self.source.seek(SeekFrom::End(0))?;
+        let aligned = point
+            .offset
+            .checked_sub(self.body_offset)
+            .is_some_and(|o| o % D::WORD_BYTES as u64 == 0);
+        let plausible = point.state.iter().all(|v| v.unsigned_abs() < 1 << 60);
+        if !aligned || point.offset > size || !plausible {
+            self.source
+                .seek(SeekFrom::Start(self.offset + self.carry as u64))?;
+            return Err(mismatch());
+        }
+        let saved = self.decoder.state();
+        if self.decoder.restore(&point.state).is_none() {
+            if let Some(saved) = saved {
+                self.decoder.restore(&saved);
+            }
+            self.source
+                .seek(SeekFrom::Start(self.offset + self.carry as u64))?;
+            return Err(mismatch());
+        }
         self.source.seek(SeekFrom::Start(point.offset))?;
         self.offset = point.offset;
         self.carry = 0;

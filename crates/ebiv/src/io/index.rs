@@ -17,7 +17,7 @@ use serde::{Deserialize, Serialize};
 use std::path::{Path, PathBuf};
 
 /// Version of the index file's layout; other versions are ignored (and rebuilt).
-const VERSION: u32 = 1;
+const VERSION: u32 = 2;
 
 /// Points are recorded at batch boundaries at least this many bytes apart.
 pub const SPACING_BYTES: u64 = 1 << 20;
@@ -43,6 +43,11 @@ pub struct RecordingIndex {
     pub file_size: u64,
     /// The file's modification time when indexed, ns since the Unix epoch.
     pub modified_ns: u64,
+    /// The sensor size the file was decoded with (events outside it are dropped, so the
+    /// decoder's state depends on it).
+    pub geometry: Option<(u32, u32)>,
+    /// The Metavision SDK time shift of the file ([`ReadOptions::metavision_time_shift`]).
+    pub metavision_shift_us: Option<i64>,
     /// Events in the file.
     pub events: u64,
     /// Resume points in file order.
@@ -80,6 +85,7 @@ pub fn build_index(path: &Path, options: &ReadOptions) -> Result<RecordingIndex>
     let (file_size, modified_ns) = stamp(path)?;
     let mut reader = super::open_without_index(path, &options)?;
     let format = reader.metadata().format.name().to_string();
+    let geometry = reader.metadata().geometry.map(|g| (g.width, g.height));
     let mut points = Vec::new();
     let mut batch = EventBuffer::new();
     let mut last: Option<i64> = None;
@@ -112,6 +118,8 @@ pub fn build_index(path: &Path, options: &ReadOptions) -> Result<RecordingIndex>
         format,
         file_size,
         modified_ns,
+        geometry,
+        metavision_shift_us: reader.inner().metavision_time_shift(),
         events: reader.report().events,
         points,
     })
@@ -164,9 +172,18 @@ pub fn write_index(path: &Path, index: &RecordingIndex) -> Result<PathBuf> {
     Ok(cache)
 }
 
-/// The index of `path` (format `format`) if one is stored and still describes the file.
-pub fn load_index(path: &Path, format: &str) -> Option<RecordingIndex> {
+/// The index of `path` (format `format`, read on a sensor of `geometry`) if one is stored
+/// and still describes the file. A file system without modification times has no index.
+pub fn load_index(
+    path: &Path,
+    format: &str,
+    geometry: Option<crate::event::Geometry>,
+) -> Option<RecordingIndex> {
     let (size, modified) = stamp(path).ok()?;
+    if modified == 0 {
+        return None;
+    }
+    let geometry = geometry.map(|g| (g.width, g.height));
     [Some(sidecar(path)), cached(path)]
         .into_iter()
         .flatten()
@@ -177,7 +194,16 @@ pub fn load_index(path: &Path, format: &str) -> Option<RecordingIndex> {
                 && ix.format == format
                 && ix.file_size == size
                 && ix.modified_ns == modified
+                && ix.geometry == geometry
         })
+}
+
+/// Whether the format of `path` has an index (RAW EVT 2.0, 2.1, 3.0).
+pub fn indexable(path: &Path, options: &ReadOptions) -> Result<bool> {
+    Ok(super::open_without_index(path, options)?
+        .inner()
+        .resume_point()
+        .is_some())
 }
 
 /// The stored index of `path`, or a new one built and stored now. `None` for formats
@@ -191,7 +217,7 @@ pub fn ensure_index(
     if reader.inner().resume_point().is_none() {
         return Ok(None);
     }
-    if let Some(index) = load_index(path, format) {
+    if let Some(index) = load_index(path, format, reader.metadata().geometry) {
         let file = [Some(sidecar(path)), cached(path)]
             .into_iter()
             .flatten()
@@ -205,14 +231,20 @@ pub fn ensure_index(
 }
 
 impl EventReader {
-    /// Skip by the index to the last point before `t_us` past the current position; whether
-    /// it jumped.
+    /// Skip by the index to the last point before `t_us` (as this reader delivers times,
+    /// after any Metavision shift) past the current position; whether it jumped.
     pub(crate) fn jump_by_index(&mut self, t_us: i64) -> Result<bool> {
         let Some(index) = self.index.clone() else {
             return Ok(false);
         };
+        // The index counts decoded times; a shift not learned yet is the index's.
+        let shift = match (self.applies_metavision_shift(), self.shift_us()) {
+            (false, _) => 0,
+            (true, 0) => index.metavision_shift_us.unwrap_or(0),
+            (true, known) => known,
+        };
         let here = self.position().unwrap_or(0);
-        match index.point_before(t_us, here) {
+        match index.point_before(t_us.saturating_add(shift), here) {
             Some(point) => {
                 self.inner_mut().resume(&point.resume)?;
                 Ok(true)
@@ -252,8 +284,11 @@ mod tests {
         path
     }
 
-    fn events_from(path: &Path, t: i64, indexed: bool) -> (EventBuffer, bool) {
-        let options = ReadOptions::default();
+    fn events_from(path: &Path, t: i64, indexed: bool, shift: bool) -> (EventBuffer, bool) {
+        let options = ReadOptions {
+            metavision_time_shift: shift,
+            ..ReadOptions::default()
+        };
         let mut reader = if indexed {
             crate::io::open(path, &options).unwrap()
         } else {
@@ -283,13 +318,27 @@ mod tests {
             assert_eq!(index.events, 1_200_000);
             let written = write_index(&path, &index).unwrap();
             assert_eq!(written, sidecar(&path));
-            for t in [
+            let mut targets = vec![
                 0, 1, 9_999_999, 16_777_216, 20_000_000, 39_999_990, 50_000_000,
-            ] {
-                let (plain, _) = events_from(&path, t, false);
-                let (indexed, used) = events_from(&path, t, true);
-                assert!(used);
-                assert_eq!(plain, indexed, "{format:?} at {t}");
+            ];
+            // Just past each point: where a wrong shift or state would lose events.
+            targets.extend(
+                index
+                    .points
+                    .iter()
+                    .filter_map(|p| p.time_before_us)
+                    .map(|t| t + 1),
+            );
+            for t in targets {
+                for shift in [false, true] {
+                    let (plain, _) = events_from(&path, t, false, shift);
+                    let (indexed, used) = events_from(&path, t, true, shift);
+                    assert!(used);
+                    assert_eq!(
+                        plain, indexed,
+                        "{format:?} at {t}, Metavision shift {shift}"
+                    );
+                }
             }
             // The index jumps: far into the file, the reader starts near the target.
             let mut reader = crate::io::open(&path, &ReadOptions::default()).unwrap();
@@ -304,24 +353,59 @@ mod tests {
         let path = recording(dir.path(), Format::Evt3, 300_000);
         let index = build_index(&path, &ReadOptions::default()).unwrap();
         write_index(&path, &index).unwrap();
-        assert!(load_index(&path, "Prophesee RAW EVT 3.0").is_some());
-        assert!(load_index(&path, "Prophesee RAW EVT 2.0").is_none());
+        let g = Some(Geometry::new(640, 480));
+        assert!(load_index(&path, "Prophesee RAW EVT 3.0", g).is_some());
+        assert!(load_index(&path, "Prophesee RAW EVT 2.0", g).is_none());
+        assert!(load_index(
+            &path,
+            "Prophesee RAW EVT 3.0",
+            Some(Geometry::new(640, 240))
+        )
+        .is_none());
         // The file changes: the index no longer describes it.
         let mut bytes = std::fs::read(&path).unwrap();
         bytes.extend_from_slice(&[0, 0x80]);
         std::fs::write(&path, bytes).unwrap();
-        assert!(load_index(&path, "Prophesee RAW EVT 3.0").is_none());
+        assert!(load_index(&path, "Prophesee RAW EVT 3.0", g).is_none());
         assert!(!crate::io::open(&path, &ReadOptions::default())
             .unwrap()
             .has_index());
         // A damaged state is an error naming the index, not a panic.
         let mut reader = crate::io::open(&path, &ReadOptions::default()).unwrap();
-        let bad = ResumePoint {
-            offset: 2,
-            state: vec![1, 2],
-        };
-        let e = reader.inner_mut().resume(&bad).unwrap_err().to_string();
-        assert!(e.contains("index"), "{e}");
+        let good = index.points[1].resume.clone();
+        let bad = [
+            ResumePoint {
+                offset: good.offset,
+                state: vec![1, 2],
+            },
+            ResumePoint {
+                offset: good.offset + 1,
+                state: good.state.clone(),
+            },
+            ResumePoint {
+                offset: u64::MAX - 1,
+                state: good.state.clone(),
+            },
+            ResumePoint {
+                offset: 0,
+                state: good.state.clone(),
+            },
+            ResumePoint {
+                offset: good.offset,
+                state: good.state.iter().map(|_| i64::MAX).collect(),
+            },
+        ];
+        for point in &bad {
+            let e = reader.inner_mut().resume(point).unwrap_err().to_string();
+            assert!(e.contains("index"), "{point:?}: {e}");
+        }
+        // The reader is where it was and still reads the whole file.
+        let mut all = EventBuffer::new();
+        let mut batch = EventBuffer::new();
+        while reader.read_batch(&mut batch).unwrap() {
+            all.extend_from(&batch);
+        }
+        assert_eq!(all.len(), 300_000);
     }
 
     #[test]

@@ -175,7 +175,8 @@ pub fn open(path: impl AsRef<Path>, options: &ReadOptions) -> Result<EventReader
     let path = path.as_ref();
     let mut reader = open_without_index(path, options)?;
     if reader.inner().resume_point().is_some() {
-        reader.index = index::load_index(path, reader.metadata().format.name()).map(Into::into);
+        let m = reader.metadata();
+        reader.index = index::load_index(path, m.format.name(), m.geometry).map(Into::into);
     }
     Ok(reader)
 }

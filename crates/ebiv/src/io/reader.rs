@@ -53,6 +53,14 @@ impl EventReader {
         &mut *self.inner
     }
 
+    pub(crate) fn applies_metavision_shift(&self) -> bool {
+        self.apply_metavision_shift
+    }
+
+    pub(crate) fn shift_us(&self) -> i64 {
+        self.shift_us
+    }
+
     /// Whether seeking uses an index of the recording ([`super::index`]).
     pub fn has_index(&self) -> bool {
         self.index.is_some()
@@ -120,7 +128,7 @@ impl EventReader {
     /// Skip to the first event at or after `t_us` (camera time, after any shift): jumps by the
     /// file's index where the format has one, and otherwise decodes and discards quickly.
     pub fn skip_to(&mut self, t_us: i64) -> Result<()> {
-        if self.pending.is_none() && !self.jump_by_index(t_us + self.shift_us)? {
+        if self.pending.is_none() && !self.jump_by_index(t_us)? {
             self.inner.seek_near(t_us + self.shift_us)?;
         }
         let mut batch = EventBuffer::new();

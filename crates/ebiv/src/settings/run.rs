@@ -71,6 +71,26 @@ impl Resolved {
         source: &EventSource,
         observer: &mut dyn RunObserver,
     ) -> Result<Measurement> {
+        self.measure_fields(source, observer, true)
+    }
+
+    /// [`Resolved::measure`] of a part of a run (a shard of `ebiv.dask`, selected by `time`):
+    /// fields without events are gaps with a warning even when all are, as they are in the
+    /// whole run.
+    pub fn measure_part(
+        &self,
+        source: &EventSource,
+        observer: &mut dyn RunObserver,
+    ) -> Result<Measurement> {
+        self.measure_fields(source, observer, false)
+    }
+
+    fn measure_fields(
+        &self,
+        source: &EventSource,
+        observer: &mut dyn RunObserver,
+        all_empty_is_error: bool,
+    ) -> Result<Measurement> {
         if let super::Source::Images(_) = self.source {
             return Err(Error::parameter(
                 "images",
@@ -85,7 +105,8 @@ impl Resolved {
             })??,
             Method::Piv | Method::Pulsed => self.measure_frames(source, observer)?,
         };
-        let warnings = check_found_events(source, &summary, &planned, polarity)?;
+        let warnings =
+            check_found_events(source, &summary, &planned, polarity, all_empty_is_error)?;
         series.time_origin_us = Some(planned.time_origin_us);
         series.calibration = self.calibration;
         series.attributes.push(("source".into(), source.name()));
@@ -153,7 +174,10 @@ impl Resolved {
         let mut params = self.frame_params(source, observer)?;
         let (before, after) = params.time_extent_us();
         let mut planned = self.plan_fields(source, (before, after), before + after)?;
-        skip_to_first_field(&mut planned, before)?;
+        // Pulsed frames snap to the pulses, so the first frame may start before `before`.
+        let first_frame = params.plan(planned.times[0]).starts.first().copied();
+        let lead = first_frame.map_or(before, |start| before.max(planned.times[0] - start));
+        skip_to_first_field(&mut planned, lead)?;
         let g = planned.geometry;
         params.piv.mask = self.mask_for(g)?;
         for pass in &params.piv.passes {
@@ -303,13 +327,14 @@ fn check_found_events(
     summary: &RunSummary,
     planned: &PlannedFields,
     polarity: PolaritySelection,
+    all_empty_is_error: bool,
 ) -> Result<Vec<String>> {
     let polarity = match polarity {
         PolaritySelection::Both => "either polarity".to_string(),
         p => format!("{} polarity", format!("{p:?}").to_lowercase()),
     };
     let described_times = planned.describe_times();
-    if summary.fields > 0 && summary.empty_fields == summary.fields {
+    if all_empty_is_error && summary.fields > 0 && summary.empty_fields == summary.fields {
         return Err(Error::empty(
             source.name(),
             format!(
