@@ -61,7 +61,11 @@ pub const TIME_UNITS: &str = "microseconds since 1970-01-01 00:00:00";
 /// Write `field` to `path` as NetCDF-3 (64-bit offset), through a temporary file: the
 /// variables and attributes of [`netcdf_dataset`].
 pub fn write_field_netcdf(field: &FieldSeries, path: &Path) -> Result<()> {
-    let dataset = netcdf_dataset(field).map_err(|m| nc_err(path, m))?;
+    check(field)?;
+    let dataset = netcdf_dataset(field).map_err(|message| Error::Write {
+        what: path.display().to_string(),
+        message: format!("NetCDF: {message}"),
+    })?;
     write_dataset_netcdf(&dataset, path)
 }
 

@@ -179,6 +179,15 @@ pub fn load_index(
     format: &str,
     geometry: Option<crate::event::Geometry>,
 ) -> Option<RecordingIndex> {
+    find_index(path, format, geometry).map(|(index, _)| index)
+}
+
+/// [`load_index`], and the file it was read from.
+fn find_index(
+    path: &Path,
+    format: &str,
+    geometry: Option<crate::event::Geometry>,
+) -> Option<(RecordingIndex, PathBuf)> {
     let (size, modified) = stamp(path).ok()?;
     if modified == 0 {
         return None;
@@ -187,9 +196,11 @@ pub fn load_index(
     [Some(sidecar(path)), cached(path)]
         .into_iter()
         .flatten()
-        .filter_map(|file| std::fs::read_to_string(file).ok())
-        .filter_map(|text| serde_json::from_str::<RecordingIndex>(&text).ok())
-        .find(|ix| {
+        .filter_map(|file| Some((std::fs::read_to_string(&file).ok()?, file)))
+        .filter_map(|(text, file)| {
+            Some((serde_json::from_str::<RecordingIndex>(&text).ok()?, file))
+        })
+        .find(|(ix, _)| {
             ix.version == VERSION
                 && ix.format == format
                 && ix.file_size == size
@@ -217,13 +228,8 @@ pub fn ensure_index(
     if reader.inner().resume_point().is_none() {
         return Ok(None);
     }
-    if let Some(index) = load_index(path, format, reader.metadata().geometry) {
-        let file = [Some(sidecar(path)), cached(path)]
-            .into_iter()
-            .flatten()
-            .find(|f| f.is_file())
-            .unwrap_or_else(|| sidecar(path));
-        return Ok(Some((index, file)));
+    if let Some(found) = find_index(path, format, reader.metadata().geometry) {
+        return Ok(Some(found));
     }
     let index = build_index(path, options)?;
     let file = write_index(path, &index)?;

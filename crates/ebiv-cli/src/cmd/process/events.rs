@@ -10,13 +10,10 @@ use std::time::Instant;
 
 /// Measure the recording's fields, write the series and the figures.
 pub fn run(run: &Resolved, options: &ReadOptions) -> Result<(), Error> {
-    if let Some(dir) = &run.png {
-        std::fs::create_dir_all(dir).map_err(|e| Error::io(dir, e))?;
-    }
-    let started = Instant::now();
     let mut observer = Observer {
         run,
         progress: None,
+        started: Instant::now(),
     };
     let mut measured = run.measure(&run.event_source(options), &mut observer)?;
     let frames = observer
@@ -30,7 +27,7 @@ pub fn run(run: &Resolved, options: &ReadOptions) -> Result<(), Error> {
         run,
         &mut measured.series,
         &measured.summary,
-        started,
+        observer.started,
         &measured.report,
     )?;
     if let Some(dir) = &run.png {
@@ -44,12 +41,18 @@ pub fn run(run: &Resolved, options: &ReadOptions) -> Result<(), Error> {
 struct Observer<'a> {
     run: &'a Resolved,
     progress: Option<FieldProgress<'a>>,
+    /// When the fields began (after planning): the run's time and rates count from here.
+    started: Instant,
 }
 
 impl RunObserver for Observer<'_> {
     fn planned(&mut self, plan: &RunPlan) -> Result<(), Error> {
         crate::interrupt::check(&self.run.output)?;
         println!("{}", plan.description);
+        if let Some(dir) = &self.run.png {
+            std::fs::create_dir_all(dir).map_err(|e| Error::io(dir, e))?;
+        }
+        self.started = Instant::now();
         self.progress = Some(FieldProgress::new(
             self.run,
             plan.geometry,
