@@ -59,6 +59,12 @@ fn reader_option_text(key: &str, value: &Bound<'_, PyAny>) -> PyResult<String> {
     Ok(value.str()?.to_string())
 }
 
+/// Whether `value` names a file: a `str` or an `os.PathLike`.
+pub fn is_path(value: &Bound<'_, PyAny>) -> PyResult<bool> {
+    Ok(value.is_instance_of::<PyString>()
+        || value.is_instance(&value.py().import("os")?.getattr("PathLike")?)?)
+}
+
 /// A Python value as the TOML value a configuration file would hold: bools, integers,
 /// floats, strings (durations with units such as "10ms"), paths, and lists of them.
 pub fn toml_value(key: &str, value: &Bound<'_, PyAny>) -> PyResult<toml::Value> {
@@ -83,12 +89,9 @@ pub fn toml_value(key: &str, value: &Bound<'_, PyAny>) -> PyResult<toml::Value> 
             .collect::<PyResult<Vec<_>>>()
             .map(toml::Value::Array);
     }
-    let py = value.py();
-    let os = py.import("os")?;
-    if value.is_instance(&os.getattr("PathLike")?)? {
-        return Ok(toml::Value::String(
-            os.call_method1("fspath", (value,))?.extract()?,
-        ));
+    if is_path(value)? {
+        let fspath = value.py().import("os")?.call_method1("fspath", (value,))?;
+        return Ok(toml::Value::String(fspath.extract()?));
     }
     // NumPy scalars and other numbers.
     if let Ok(i) = value

@@ -2,7 +2,7 @@
 //! call with Python's arguments converted, run with the GIL released (see [`watched`]).
 
 use crate::convert::{
-    apply_keywords, dataset_from_py, dataset_to_py, events_from_arrays, events_to_py,
+    apply_keywords, dataset_from_py, dataset_to_py, events_from_arrays, events_to_py, is_path,
 };
 use crate::errors::IntoPy;
 use crate::observe::{watched, FieldWatch};
@@ -17,7 +17,7 @@ use ebiv::sim::scenario::{Scenario, EXAMPLES};
 use numpy::{PyArray1, PyReadonlyArray2, PyUntypedArrayMethods};
 use pyo3::exceptions::{PyTypeError, PyValueError};
 use pyo3::prelude::*;
-use pyo3::types::{PyDict, PyString};
+use pyo3::types::PyDict;
 use std::path::PathBuf;
 use std::sync::Arc;
 
@@ -117,9 +117,7 @@ enum Input {
 }
 
 fn input_of(source: &Bound<'_, PyAny>) -> PyResult<Input> {
-    let py = source.py();
-    let os = py.import("os")?;
-    if source.is_instance_of::<PyString>() || source.is_instance(&os.getattr("PathLike")?)? {
+    if is_path(source)? {
         return Ok(Input::Path(source.extract()?));
     }
     let field = |name: &str| -> PyResult<Bound<'_, PyAny>> {
@@ -235,8 +233,7 @@ pub fn plan<'py>(
 /// A grey image from a path or a 2-D array (any numeric type, converted to float32).
 fn frame_of(image: &Bound<'_, PyAny>, index: usize) -> PyResult<(Frame, PathBuf)> {
     let py = image.py();
-    let os = py.import("os")?;
-    if image.is_instance_of::<PyString>() || image.is_instance(&os.getattr("PathLike")?)? {
+    if is_path(image)? {
         let path: PathBuf = image.extract()?;
         let frame = ebiv::frame::file::load(&path).py_err()?;
         return Ok((frame, path));

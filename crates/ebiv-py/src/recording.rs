@@ -47,11 +47,9 @@ pub fn index(
         if !ebiv::io::index::indexable(&path, &options)? {
             return Ok(None);
         }
-        if force {
-            let index = ebiv::io::index::build_index(&path, &options)?;
-            return ebiv::io::index::write_index(&path, &index).map(Some);
-        }
-        Ok(ebiv::io::index::ensure_index(&path, &options)?.map(|(_, file)| file))
+        Ok(Some(
+            ebiv::io::index::ensure_index(&path, &options, force)?.file,
+        ))
     })
 }
 

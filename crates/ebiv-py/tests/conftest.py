@@ -9,7 +9,7 @@ import pytest
 REPO = pathlib.Path(__file__).resolve().parents[3]
 
 
-@pytest.fixture(scope="session")
+@pytest.fixture(scope="package")
 def ebiv_bin() -> str:
     """The `ebiv` command: `$EBIV_BIN`, else the workspace's release build."""
     path = os.environ.get("EBIV_BIN") or str(REPO / "target" / "release" / "ebiv")
@@ -18,7 +18,7 @@ def ebiv_bin() -> str:
     return path
 
 
-@pytest.fixture(scope="session")
+@pytest.fixture(scope="package")
 def cli(ebiv_bin):
     """Run `ebiv ARGS…`; returns the completed process (output as text)."""
 
@@ -31,7 +31,7 @@ def cli(ebiv_bin):
     return run
 
 
-@pytest.fixture(scope="session")
+@pytest.fixture(scope="package")
 def data():
     """A file of the shared test data (`$EBIV_TEST_DATA`, else ../shared/data beside the
     repository); the test is skipped when it is absent."""
@@ -46,7 +46,7 @@ def data():
     return find
 
 
-@pytest.fixture(scope="session")
+@pytest.fixture(scope="package")
 def simulated(tmp_path_factory, cli):
     """A short simulated recording of the `uniform` example (EVT 3.0) with its truth."""
     d = tmp_path_factory.mktemp("sim")

@@ -18,7 +18,7 @@ SETTINGS = {"window": [48, 32], "slab": "5ms", "time": "::2ms"}
 
 @pytest.fixture(scope="module")
 def recording(simulated, tmp_path_factory):
-    """A copy of the session's recording: the index ebiv.dask writes beside it stays here."""
+    """A copy of the shared recording: the index ebiv.dask writes beside it stays here."""
     import shutil
 
     path = tmp_path_factory.mktemp("dask") / "rec.raw"

@@ -28,13 +28,12 @@ pub fn run(args: &IndexArgs) -> Result<(), ebiv::Error> {
     let options = args.input.read_options()?;
     for path in &args.files {
         let started = Instant::now();
-        let reader = ebiv::io::open(path, &options)?;
-        if reader.has_index() && !args.force {
+        let ensured = ebiv::io::index::ensure_index(path, &options, args.force)?;
+        if !ensured.built {
             println!("{}: index up to date", path.display());
             continue;
         }
-        let index = ebiv::io::index::build_index(path, &options)?;
-        let written = ebiv::io::index::write_index(path, &index)?;
+        let index = &ensured.index;
         let seconds = started.elapsed().as_secs_f64();
         println!(
             "{}: {} points over {:.1} MB, {} events, built in {seconds:.2} s ({:.0} M events/s); wrote {}",
@@ -43,7 +42,7 @@ pub fn run(args: &IndexArgs) -> Result<(), ebiv::Error> {
             index.file_size as f64 / 1e6,
             index.events,
             index.events as f64 / seconds / 1e6,
-            written.display()
+            ensured.file.display()
         );
     }
     Ok(())

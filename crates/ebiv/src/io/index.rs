@@ -217,23 +217,38 @@ pub fn indexable(path: &Path, options: &ReadOptions) -> Result<bool> {
         .is_some())
 }
 
-/// The stored index of `path`, or a new one built and stored now. `None` for formats
-/// without an index.
-pub fn ensure_index(
-    path: &Path,
-    options: &ReadOptions,
-) -> Result<Option<(RecordingIndex, PathBuf)>> {
+/// An index found by [`ensure_index`], or built by it.
+#[derive(Debug)]
+pub struct EnsuredIndex {
+    /// The index.
+    pub index: RecordingIndex,
+    /// Where it is stored.
+    pub file: PathBuf,
+    /// Whether it was built now (missing, stale, or `force`).
+    pub built: bool,
+}
+
+/// The stored index of `path` if it still describes the file, else (or with `force`) a new
+/// one built and stored now. An error for formats without an index ([`indexable`]).
+pub fn ensure_index(path: &Path, options: &ReadOptions, force: bool) -> Result<EnsuredIndex> {
     let reader = super::open_without_index(path, options)?;
-    let format = reader.metadata().format.name();
-    if reader.inner().resume_point().is_none() {
-        return Ok(None);
-    }
-    if let Some(found) = find_index(path, format, reader.metadata().geometry) {
-        return Ok(Some(found));
+    let m = reader.metadata();
+    if !force {
+        if let Some((index, file)) = find_index(path, m.format.name(), m.geometry) {
+            return Ok(EnsuredIndex {
+                index,
+                file,
+                built: false,
+            });
+        }
     }
     let index = build_index(path, options)?;
     let file = write_index(path, &index)?;
-    Ok(Some((index, file)))
+    Ok(EnsuredIndex {
+        index,
+        file,
+        built: true,
+    })
 }
 
 impl EventReader {
@@ -423,8 +438,7 @@ mod tests {
             .unwrap_err()
             .to_string();
         assert!(e.contains("no index"), "{e}");
-        assert!(ensure_index(&path, &ReadOptions::default())
-            .unwrap()
-            .is_none());
+        assert!(!indexable(&path, &ReadOptions::default()).unwrap());
+        assert!(ensure_index(&path, &ReadOptions::default(), false).is_err());
     }
 }
