@@ -52,6 +52,8 @@ enum Command {
     Simulate(cmd::simulate::SimulateArgs),
     /// Measure throughput on this machine, and the event estimators' operating envelope.
     Bench(cmd::bench::BenchArgs),
+    /// Follow individual particles: tracks with velocity, acceleration and uncertainty.
+    Track(Box<cmd::track::TrackArgs>),
     /// Errors of a vector field against the truth, or agreement of two fields, with a report.
     Assess(Box<cmd::assess::AssessArgs>),
     /// Monte-Carlo parameter study: simulate, process and measure a setup over swept
@@ -91,6 +93,7 @@ fn main() -> ExitCode {
         Command::Init(a) => cmd::process::init(a),
         Command::Simulate(a) => cmd::simulate::run(a),
         Command::Bench(a) => cmd::bench::run(a),
+        Command::Track(a) => cmd::track::run(a),
         Command::Assess(a) => cmd::assess::run(a),
         Command::Study(a) => cmd::study::run(a),
     };

@@ -34,6 +34,7 @@ pub mod sim;
 mod simd;
 pub mod stats;
 pub mod study;
+pub mod track;
 #[cfg(test)]
 mod test_rng;
 pub mod units;

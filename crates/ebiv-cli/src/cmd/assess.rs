@@ -42,6 +42,12 @@ pub struct AssessArgs {
     /// The truth is the flow of a ready scenario (as in `ebiv simulate --example NAME`).
     #[arg(long, value_name = "NAME")]
     pub truth_example: Option<String>,
+    /// Score particle tracks instead (FIELD is then a track file of `ebiv track`, CSV)
+    /// against the true paths written by `ebiv simulate --tracks`; --truth (a scenario
+    /// file) or --truth-example gives the light sheet and walls that decide which particles
+    /// are in view. Yield, spurious tracks, position, velocity and acceleration errors.
+    #[arg(long, value_name = "FILE", conflicts_with = "other")]
+    pub truth_tracks: Option<PathBuf>,
     /// Write the report here: JSON, a tidy CSV table, report.md and PNG figures.
     #[arg(short, long, value_name = "DIR")]
     pub output: Option<PathBuf>,
@@ -88,6 +94,9 @@ pub fn run(args: &AssessArgs) -> Result<(), ebiv::Error> {
     if let Some(other) = &args.other {
         return run_compare(args, other, &read_options);
     }
+    if let Some(truth_tracks) = &args.truth_tracks {
+        return run_tracks(args, truth_tracks);
+    }
     let options = AssessOptions {
         outlier_px: args.outlier_px,
         outlier_floor: args.outlier_floor,
@@ -133,6 +142,47 @@ fn run_compare(
     if let Some(dir) = &args.output {
         let written = ebiv::render::write_agreement_report(dir, &agreement, &context)?;
         println!("wrote {} files to {}", written.len(), dir.display());
+    }
+    Ok(())
+}
+
+/// Track mode: measured tracks against the simulator's particle paths.
+fn run_tracks(args: &AssessArgs, truth_tracks: &Path) -> Result<(), ebiv::Error> {
+    use ebiv::sim::scenario::Scenario;
+    use ebiv::track::score::{score_tracks, ScoreOptions};
+    let scenario = match (&args.truth_example, &args.truth) {
+        (Some(name), _) => Some(Scenario::from_example(name)?),
+        (None, Some(path)) => Some(Scenario::from_file(path)?),
+        (None, None) => None,
+    };
+    let tracks = ebiv::export::read_tracks_csv(&args.field)?;
+    let truth = ebiv::export::read_truth_tracks_csv(truth_tracks)?;
+    let options = match &scenario {
+        Some(s) => ScoreOptions::for_scenario(s),
+        None => {
+            let (w, h) = truth.iter().fold((1.0f64, 1.0f64), |a, p| {
+                (a.0.max(p.x + 1.0), a.1.max(p.y + 1.0))
+            });
+            let sheet = ebiv::sim::particles::SeedingParams::default().sheet_thickness;
+            ScoreOptions::new(w.ceil() as u32, h.ceil() as u32, sheet)
+        }
+    };
+    let score = score_tracks(&tracks, &truth, &options);
+    println!(
+        "{}: tracks against {}",
+        args.field.display(),
+        truth_tracks.display()
+    );
+    print!("{}", score.summary());
+    if let Some(dir) = &args.output {
+        std::fs::create_dir_all(dir).map_err(|e| ebiv::Error::io(dir, e))?;
+        let path = dir.join("tracks.json");
+        let json = serde_json::to_string_pretty(&score).map_err(|e| ebiv::Error::Write {
+            what: path.display().to_string(),
+            message: e.to_string(),
+        })?;
+        ebiv::export::write_text(&path, &(json + "\n"))?;
+        println!("wrote {}", path.display());
     }
     Ok(())
 }

@@ -12,6 +12,7 @@ pub mod process;
 pub mod render;
 pub mod simulate;
 pub mod study;
+pub mod track;
 
 use crate::progress::bytes_bar;
 use ebiv::io::{EventReader, ReadOptions};

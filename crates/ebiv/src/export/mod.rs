@@ -19,6 +19,7 @@ mod csv;
 pub(crate) mod netcdf;
 mod npz;
 mod tecplot;
+mod tracks;
 mod vtk;
 
 pub use self::csv::{csv_header, write_field_csv, CSV_HEADER};
@@ -27,6 +28,10 @@ pub use self::netcdf::{
 };
 pub use self::npz::write_field_npz;
 pub use self::tecplot::{write_field_tecplot, TECPLOT_MISSING};
+pub use self::tracks::{
+    read_tracks_csv, read_truth_tracks_csv, track_csv_header, tracks_dataset, write_tracks_npz,
+    TrackFormat, TrackTable, TrackWriter, TRACK_COLUMNS,
+};
 pub use self::vtk::{vtk_series_paths, write_field_vtk};
 
 use crate::error::{Error, Result};

@@ -23,7 +23,7 @@ use std::io::Write;
 use std::path::Path;
 
 /// An element type that has a `.npy` type descriptor.
-trait NpyElement: Copy {
+pub(crate) trait NpyElement: Copy {
     /// The NumPy `descr` string, e.g. `<f4`.
     const DESCR: &'static str;
     /// Append the little-endian bytes of `self`.
@@ -44,6 +44,7 @@ macro_rules! npy_element {
 npy_element!(f64, "<f8");
 npy_element!(f32, "<f4");
 npy_element!(i64, "<i8");
+npy_element!(u64, "<u8");
 npy_element!(u32, "<u4");
 npy_element!(u8, "|u1");
 
@@ -72,7 +73,7 @@ fn npy_header(descr: &str, shape: &[usize]) -> Vec<u8> {
 }
 
 /// A complete `.npy` file of `data` with `shape`.
-fn npy<T: NpyElement>(data: &[T], shape: &[usize]) -> Vec<u8> {
+pub(crate) fn npy<T: NpyElement>(data: &[T], shape: &[usize]) -> Vec<u8> {
     let mut out = npy_header(T::DESCR, shape);
     out.reserve(std::mem::size_of_val(data));
     for &v in data {
@@ -83,7 +84,7 @@ fn npy<T: NpyElement>(data: &[T], shape: &[usize]) -> Vec<u8> {
 
 /// A `.npy` file of a 1-D unicode array (`<U{n}`: UCS-4 little-endian, each string padded
 /// with NUL code points to the longest one).
-fn npy_strings(strings: &[String]) -> Vec<u8> {
+pub(crate) fn npy_strings(strings: &[String]) -> Vec<u8> {
     let width = strings
         .iter()
         .map(|s| s.chars().count())
@@ -136,10 +137,16 @@ pub fn write_field_npz(field: &FieldSeries, path: &Path) -> Result<()> {
         .collect();
     members.push(("attributes", npy_strings(&attributes)));
 
+    write_npz(path, &members)
+}
+
+/// Write `members` (name, `.npy` bytes) as a NumPy `.npz` archive (deflated), through a
+/// temporary file.
+pub(crate) fn write_npz(path: &Path, members: &[(&str, Vec<u8>)]) -> Result<()> {
     write_atomic(path, |w| {
         use zip::write::SimpleFileOptions;
         let mut zip = zip::ZipWriter::new(w);
-        for (name, bytes) in &members {
+        for (name, bytes) in members {
             let options = SimpleFileOptions::default()
                 .compression_method(zip::CompressionMethod::Deflated)
                 .large_file(bytes.len() as u64 >= u32::MAX as u64);

@@ -1,0 +1,562 @@
+//! The smooth path of a track: a local polynomial in time fitted to the track's events
+//! around each sample (local regression, Cleveland & Devlin 1988), with tricube weights over
+//! `fit_window`, and velocity and acceleration as its derivatives.
+//!
+//! Model of an event at time t (ms, relative to the sample, less the `latency`), polarity
+//! s = +1 (ON) or −1 (OFF):
+//!
+//! ```text
+//!     x = a0 + a1 t + a2 t² + a3 t³ + c s        (and likewise y)
+//! ```
+//!
+//! The term c s takes up the ON events' lead and the OFF events' trail, so the polynomial
+//! follows their midpoint — the particle centre when the two are symmetric. A window with
+//! one polarity only drops the term. The fit runs twice: the second pass leaves out events
+//! further than 3.5 robust standard deviations from the first (stray events of noise or of a
+//! particle passing close).
+//!
+//! Uncertainty: the coefficients' covariance from the weighted residuals (the sandwich form
+//! for weighted least squares, `M⁻¹ (Σ w² r rᵀ σ²) M⁻¹`), scaled by the events per pixel
+//! visit: a pixel fires a burst of events as an image passes, and the events of one burst
+//! share its position, so the independent samples are the bursts, not the events.
+
+use super::detect::TrackEvent;
+use super::params::TrackParams;
+
+/// One sample of a fitted track.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct TrackSample {
+    /// Time, µs.
+    pub t_us: i64,
+    /// Position, px.
+    pub x: f64,
+    /// Position, px.
+    pub y: f64,
+    /// Velocity, px/ms.
+    pub u: f64,
+    /// Velocity, px/ms.
+    pub v: f64,
+    /// Acceleration, px/ms² (NaN for degree 1).
+    pub ax: f64,
+    /// Acceleration, px/ms².
+    pub ay: f64,
+    /// Standard uncertainties of x, y (px), u, v (px/ms), ax, ay (px/ms²).
+    pub unc: [f64; 6],
+    /// Events in the fit window.
+    pub events: u32,
+    /// RMS distance of those events from the fitted path (both axes), px.
+    pub residual: f64,
+}
+
+impl TrackSample {
+    /// Curvature of the path, 1/px: (u a_y − v a_x) / |v|³ (positive turning clockwise on
+    /// screen, image y down).
+    pub fn curvature(&self) -> f64 {
+        let speed = (self.u * self.u + self.v * self.v).sqrt();
+        (self.u * self.ay - self.v * self.ax) / (speed * speed * speed)
+    }
+}
+
+/// A finished track.
+#[derive(Debug, Clone)]
+pub struct Track {
+    /// Identity, unique in a run.
+    pub id: u64,
+    /// Samples in time order.
+    pub samples: Vec<TrackSample>,
+    /// Events of the track.
+    pub events: u32,
+    /// Events left out as outliers.
+    pub outliers: u32,
+    /// Time of the first and the last event, µs.
+    pub span_us: (i64, i64),
+}
+
+impl Track {
+    /// Duration from first to last event, µs.
+    pub fn duration_us(&self) -> i64 {
+        self.span_us.1 - self.span_us.0
+    }
+}
+
+/// Fewest events in a fit window.
+const MIN_FIT_EVENTS: usize = 30;
+
+/// Most a fit window is widened to find [`MIN_FIT_EVENTS`] on both sides of a sample.
+const MAX_WIDENING: f64 = 3.0;
+
+/// Largest number of unknowns per axis: a cubic and the polarity term.
+const MAX_TERMS: usize = 5;
+
+/// Normal equations of one window.
+struct Normal {
+    terms: usize,
+    m: [[f64; MAX_TERMS]; MAX_TERMS],
+    m2: [[f64; MAX_TERMS]; MAX_TERMS],
+    bx: [f64; MAX_TERMS],
+    by: [f64; MAX_TERMS],
+    sum_w: f64,
+    sum_w2: f64,
+    count: u32,
+}
+
+fn row(t: f64, s: f64, degree: usize, polarity: bool) -> ([f64; MAX_TERMS], usize) {
+    let mut r = [0.0; MAX_TERMS];
+    let mut p = 1.0;
+    for item in r.iter_mut().take(degree + 1) {
+        *item = p;
+        p *= t;
+    }
+    let mut n = degree + 1;
+    if polarity {
+        r[n] = s;
+        n += 1;
+    }
+    (r, n)
+}
+
+/// The inverse of the symmetric positive definite `m` (its first n × n), by Cholesky;
+/// `None` when it is singular.
+fn cholesky_inverse(
+    m: &[[f64; MAX_TERMS]; MAX_TERMS],
+    n: usize,
+) -> Option<[[f64; MAX_TERMS]; MAX_TERMS]> {
+    let mut l = [[0.0; MAX_TERMS]; MAX_TERMS];
+    for i in 0..n {
+        for j in 0..=i {
+            let mut sum = m[i][j];
+            for k in 0..j {
+                sum -= l[i][k] * l[j][k];
+            }
+            if i == j {
+                if sum <= m[i][i] * 1e-12 || sum <= 0.0 {
+                    return None;
+                }
+                l[i][i] = sum.sqrt();
+            } else {
+                l[i][j] = sum / l[j][j];
+            }
+        }
+    }
+    // Inverse of L, then M⁻¹ = L⁻ᵀ L⁻¹.
+    let mut li = [[0.0; MAX_TERMS]; MAX_TERMS];
+    for i in 0..n {
+        li[i][i] = 1.0 / l[i][i];
+        for j in 0..i {
+            let mut sum = 0.0;
+            for k in j..i {
+                sum -= l[i][k] * li[k][j];
+            }
+            li[i][j] = sum / l[i][i];
+        }
+    }
+    let mut inv = [[0.0; MAX_TERMS]; MAX_TERMS];
+    for i in 0..n {
+        for j in 0..n {
+            let mut sum = 0.0;
+            for k in i.max(j)..n {
+                sum += li[k][i] * li[k][j];
+            }
+            inv[i][j] = sum;
+        }
+    }
+    Some(inv)
+}
+
+fn mat_vec(m: &[[f64; MAX_TERMS]; MAX_TERMS], v: &[f64; MAX_TERMS], n: usize) -> [f64; MAX_TERMS] {
+    let mut out = [0.0; MAX_TERMS];
+    for i in 0..n {
+        for j in 0..n {
+            out[i] += m[i][j] * v[j];
+        }
+    }
+    out
+}
+
+/// A local fit at one time: coefficients for x and y and their covariance.
+struct LocalFit {
+    ax: [f64; MAX_TERMS],
+    ay: [f64; MAX_TERMS],
+    /// Covariance of the coefficients per unit residual variance (sandwich form).
+    cov: [[f64; MAX_TERMS]; MAX_TERMS],
+    var_x: f64,
+    var_y: f64,
+    events: u32,
+    residual: f64,
+    /// Whether the polarity term was fitted.
+    polarity: bool,
+}
+
+/// Events of one polarity within one [`BIN_US`] time bin, grouped: the fit treats them as
+/// one point of weight `n` at their mean (the tricube weight hardly changes across a bin),
+/// with their scatter about the mean kept for the residual.
+#[derive(Debug, Clone, Copy)]
+struct Point {
+    t: f64,
+    x: f64,
+    y: f64,
+    s: f64,
+    n: f64,
+    /// Σ (x − x̄)² + (y − ȳ)² over the bin's events.
+    scatter: f64,
+}
+
+/// Width of the time bins that group events for the fit, µs: far below the fit window, so
+/// that the grouping changes the fit by a negligible amount while it cuts the work by the
+/// events per bin.
+const BIN_US: f64 = 50.0;
+
+/// Fits the events of a track (time order) at the sample times.
+pub struct PathFitter<'a> {
+    params: &'a TrackParams,
+    /// Event times less the latency, µs.
+    times: Vec<f64>,
+    xs: Vec<f64>,
+    ys: Vec<f64>,
+    signs: Vec<f64>,
+    keep: Vec<bool>,
+    /// The kept events grouped in bins, time order.
+    points: Vec<Point>,
+    /// Events per pixel visit in the whole track (≥ 1).
+    burst: f64,
+}
+
+impl<'a> PathFitter<'a> {
+    /// A fitter over `events` (time order).
+    pub fn new(events: &[TrackEvent], params: &'a TrackParams) -> Self {
+        let times = events
+            .iter()
+            .map(|e| e.t as f64 - params.latency_us)
+            .collect();
+        let xs = events.iter().map(|e| e.x as f64).collect();
+        let ys = events.iter().map(|e| e.y as f64).collect();
+        let signs = events
+            .iter()
+            .map(|e| if e.p != 0 { 1.0 } else { -1.0 })
+            .collect();
+        let mut fitter = PathFitter {
+            params,
+            times,
+            xs,
+            ys,
+            signs,
+            keep: vec![true; events.len()],
+            points: Vec::new(),
+            burst: events_per_visit(events),
+        };
+        fitter.group();
+        fitter
+    }
+
+    /// Group the kept events into [`Point`]s.
+    fn group(&mut self) {
+        self.points.clear();
+        let mut i = 0;
+        let n = self.times.len();
+        while i < n {
+            let slot = (self.times[i] / BIN_US).floor();
+            let mut j = i;
+            while j < n && (self.times[j] / BIN_US).floor() == slot {
+                j += 1;
+            }
+            for sign in [1.0, -1.0] {
+                let (mut k, mut st, mut sx, mut sy, mut sxx) = (0.0, 0.0, 0.0, 0.0, 0.0);
+                for e in i..j {
+                    if self.keep[e] && self.signs[e] == sign {
+                        k += 1.0;
+                        st += self.times[e];
+                        sx += self.xs[e];
+                        sy += self.ys[e];
+                        sxx += self.xs[e] * self.xs[e] + self.ys[e] * self.ys[e];
+                    }
+                }
+                if k > 0.0 {
+                    let (x, y) = (sx / k, sy / k);
+                    self.points.push(Point {
+                        t: st / k,
+                        x,
+                        y,
+                        s: sign,
+                        n: k,
+                        scatter: (sxx - k * (x * x + y * y)).max(0.0),
+                    });
+                }
+            }
+            i = j;
+        }
+        self.points.sort_by(|a, b| a.t.total_cmp(&b.t));
+    }
+
+    /// The samples of the track: every multiple of `sample` between its first and last
+    /// event (at least one, at the middle, for a track shorter than a sample interval), and
+    /// the number of outliers left out.
+    pub fn fit(mut self) -> (Vec<TrackSample>, u32) {
+        let n = self.times.len();
+        if n == 0 {
+            return (Vec::new(), 0);
+        }
+        let (first, last) = (self.times[0], self.times[n - 1]);
+        let step = self.params.sample_us as f64;
+        let mut times: Vec<f64> = Vec::new();
+        let mut k = (first / step).ceil();
+        while k * step <= last {
+            times.push(k * step);
+            k += 1.0;
+        }
+        if times.is_empty() {
+            times.push(((first + last) / 2.0).round());
+        }
+        // First pass, residuals of every event from the nearest sample's fit.
+        let first_pass: Vec<Option<LocalFit>> = times.iter().map(|&t| self.local(t)).collect();
+        let mut residuals = Vec::with_capacity(n);
+        let mut nearest = 0usize;
+        let degree = self.params.degree as usize;
+        for i in 0..n {
+            let t = self.times[i];
+            while nearest + 1 < times.len()
+                && (times[nearest + 1] - t).abs() < (times[nearest] - t).abs()
+            {
+                nearest += 1;
+            }
+            residuals.push(match &first_pass[nearest] {
+                Some(fit) => {
+                    let (px, py) = fit.position_at(t - times[nearest], self.signs[i], degree);
+                    ((self.xs[i] - px).powi(2) + (self.ys[i] - py).powi(2)).sqrt()
+                }
+                None => f64::NAN,
+            });
+        }
+        let mut sorted: Vec<f64> = residuals
+            .iter()
+            .copied()
+            .filter(|r| r.is_finite())
+            .collect();
+        let mut outliers = 0;
+        if sorted.len() >= 8 {
+            sorted.sort_by(f64::total_cmp);
+            // The median distance of a 2-D Gaussian is 1.1774 σ.
+            let sigma = sorted[sorted.len() / 2] / 1.1774;
+            let limit = 3.5 * sigma.max(0.3);
+            for (keep, r) in self.keep.iter_mut().zip(&residuals) {
+                if *r > limit {
+                    *keep = false;
+                    outliers += 1;
+                }
+            }
+        }
+        if outliers > 0 {
+            self.group();
+        }
+        let samples = times
+            .iter()
+            .filter_map(|&t| {
+                self.local(t)
+                    .map(|f| f.sample(t, self.burst, self.params.degree))
+            })
+            .collect();
+        (samples, outliers)
+    }
+
+    /// The weighted local fit at `t` (µs, latency removed): over the fit window, widened
+    /// up to [`MAX_WIDENING`] times until it holds [`MIN_FIT_EVENTS`] events with at least
+    /// a fifth of them on either side of `t`; `None` when no width does (a sample without
+    /// events around it on both sides would be an extrapolation).
+    fn local(&self, t: f64) -> Option<LocalFit> {
+        let base = self.params.fit_window_us as f64 / 2.0;
+        let mut half = base;
+        let points = &self.points;
+        let (lo, hi) = loop {
+            let lo = points.partition_point(|p| p.t < t - half);
+            let mid = points.partition_point(|p| p.t < t);
+            let hi = points.partition_point(|p| p.t <= t + half);
+            let count = |a: usize, b: usize| points[a..b].iter().map(|p| p.n).sum::<f64>();
+            let (left, right) = (count(lo, mid), count(mid, hi));
+            let total = left + right;
+            if total >= MIN_FIT_EVENTS as f64 && 5.0 * left >= total && 5.0 * right >= total {
+                break (lo, hi);
+            }
+            if half >= base * MAX_WIDENING {
+                return None;
+            }
+            half = (half * 1.5).min(base * MAX_WIDENING);
+        };
+        self.fit_window(t, half, &points[lo..hi])
+    }
+
+    /// The weighted fit at `t` over `points`, within `half` µs of it.
+    fn fit_window(&self, t: f64, half: f64, points: &[Point]) -> Option<LocalFit> {
+        let degree = self.params.degree as usize;
+        let has_on = points.iter().any(|p| p.s > 0.0);
+        let has_off = points.iter().any(|p| p.s < 0.0);
+        let polarity = has_on && has_off;
+        let mut normal = Normal {
+            terms: degree + 1 + polarity as usize,
+            m: [[0.0; MAX_TERMS]; MAX_TERMS],
+            m2: [[0.0; MAX_TERMS]; MAX_TERMS],
+            bx: [0.0; MAX_TERMS],
+            by: [0.0; MAX_TERMS],
+            sum_w: 0.0,
+            sum_w2: 0.0,
+            count: 0,
+        };
+        let scale = half / 1000.0;
+        let tricube = |dt: f64| {
+            let u = (dt / scale).abs();
+            if u >= 1.0 {
+                0.0
+            } else {
+                let a = 1.0 - u * u * u;
+                a * a * a
+            }
+        };
+        let nt = normal.terms;
+        for p in points {
+            let dt = (p.t - t) / 1000.0;
+            let w = tricube(dt);
+            if w == 0.0 {
+                continue;
+            }
+            // n events of weight w: Σ w = n w and the variance of the sum n w² σ².
+            let (wn, w2n) = (w * p.n, w * w * p.n);
+            let (r, _) = row(dt, p.s, degree, polarity);
+            for a in 0..nt {
+                for b in 0..=a {
+                    normal.m[a][b] += wn * r[a] * r[b];
+                    normal.m2[a][b] += w2n * r[a] * r[b];
+                }
+                normal.bx[a] += wn * r[a] * p.x;
+                normal.by[a] += wn * r[a] * p.y;
+            }
+            normal.sum_w += wn;
+            normal.sum_w2 += w2n;
+            normal.count += p.n as u32;
+        }
+        if (normal.count as usize) < 2 * nt + 2 || normal.sum_w <= 0.0 {
+            return None;
+        }
+        for a in 0..nt {
+            for b in 0..a {
+                normal.m[b][a] = normal.m[a][b];
+                normal.m2[b][a] = normal.m2[a][b];
+            }
+        }
+        let inv = cholesky_inverse(&normal.m, nt)?;
+        let ax = mat_vec(&inv, &normal.bx, nt);
+        let ay = mat_vec(&inv, &normal.by, nt);
+        // Weighted residuals: each point's distance from the fit, and its events' scatter
+        // about their mean (shared between the axes).
+        let (mut rx, mut ry) = (0.0, 0.0);
+        for p in points {
+            let dt = (p.t - t) / 1000.0;
+            let w = tricube(dt);
+            if w == 0.0 {
+                continue;
+            }
+            let (r, _) = row(dt, p.s, degree, polarity);
+            let (mut px, mut py) = (0.0, 0.0);
+            for k in 0..nt {
+                px += r[k] * ax[k];
+                py += r[k] * ay[k];
+            }
+            rx += w * (p.n * (p.x - px).powi(2) + p.scatter / 2.0);
+            ry += w * (p.n * (p.y - py).powi(2) + p.scatter / 2.0);
+        }
+        // Effective degrees of freedom of weighted data (Kish): (Σw)² / Σw².
+        let n_eff = normal.sum_w * normal.sum_w / normal.sum_w2;
+        let dof = (n_eff - nt as f64).max(1.0);
+        let correction = n_eff / dof;
+        let var_x = rx / normal.sum_w * correction;
+        let var_y = ry / normal.sum_w * correction;
+        // Sandwich covariance per unit variance: M⁻¹ M2 M⁻¹.
+        let mut tmp = [[0.0; MAX_TERMS]; MAX_TERMS];
+        for i in 0..nt {
+            for j in 0..nt {
+                for k in 0..nt {
+                    tmp[i][j] += inv[i][k] * normal.m2[k][j];
+                }
+            }
+        }
+        let mut cov = [[0.0; MAX_TERMS]; MAX_TERMS];
+        for i in 0..nt {
+            for j in 0..nt {
+                for k in 0..nt {
+                    cov[i][j] += tmp[i][k] * inv[k][j];
+                }
+            }
+        }
+        Some(LocalFit {
+            polarity,
+            ax,
+            ay,
+            cov,
+            var_x,
+            var_y,
+            events: normal.count,
+            residual: ((rx + ry) / normal.sum_w).sqrt(),
+        })
+    }
+}
+
+impl LocalFit {
+    /// Position of an event of sign `s` at `dt` µs from the fit's centre.
+    fn position_at(&self, dt_us: f64, s: f64, degree: usize) -> (f64, f64) {
+        let (r, nt) = row(dt_us / 1000.0, s, degree, self.polarity);
+        let (mut x, mut y) = (0.0, 0.0);
+        for k in 0..nt {
+            x += r[k] * self.ax[k];
+            y += r[k] * self.ay[k];
+        }
+        (x, y)
+    }
+
+    /// The sample at `t`, the particle's time (µs; the event times less the latency).
+    fn sample(&self, t: f64, burst: f64, degree: u32) -> TrackSample {
+        let sd = |k: usize, var: f64| (self.cov[k][k] * var * burst).sqrt();
+        let acc = degree >= 2;
+        TrackSample {
+            t_us: t.round() as i64,
+            x: self.ax[0],
+            y: self.ay[0],
+            u: self.ax[1],
+            v: self.ay[1],
+            ax: if acc { 2.0 * self.ax[2] } else { f64::NAN },
+            ay: if acc { 2.0 * self.ay[2] } else { f64::NAN },
+            unc: [
+                sd(0, self.var_x),
+                sd(0, self.var_y),
+                sd(1, self.var_x),
+                sd(1, self.var_y),
+                if acc {
+                    2.0 * sd(2, self.var_x)
+                } else {
+                    f64::NAN
+                },
+                if acc {
+                    2.0 * sd(2, self.var_y)
+                } else {
+                    f64::NAN
+                },
+            ],
+            events: self.events,
+            residual: self.residual,
+        }
+    }
+}
+
+/// Mean events per pixel visit: runs of events of one pixel and polarity less than 1 ms
+/// apart count as one visit.
+fn events_per_visit(events: &[TrackEvent]) -> f64 {
+    if events.is_empty() {
+        return 1.0;
+    }
+    let mut keys: Vec<(u16, u16, u8, i64)> = events.iter().map(|e| (e.x, e.y, e.p, e.t)).collect();
+    keys.sort_unstable();
+    let mut visits = 1usize;
+    for pair in keys.windows(2) {
+        let (a, b) = (pair[0], pair[1]);
+        if (a.0, a.1, a.2) != (b.0, b.1, b.2) || b.3 - a.3 > 1000 {
+            visits += 1;
+        }
+    }
+    (events.len() as f64 / visits as f64).max(1.0)
+}

@@ -1,0 +1,297 @@
+//! Linking detections into tracks, slab by slab.
+//!
+//! First, every track with a known velocity claims the events of the new slab that lie
+//! within `gate` of where it predicts its particle at each event's time (the nearest track
+//! takes an event): particles passing close to each other keep their own events although
+//! their images touch, as in the event-by-event assignment of Borer et al. (2017). A track's
+//! claimed events form its detection. The events no track claims are clustered
+//! ([`super::detect`]) and the clusters linked as follows.
+//!
+//! Each live track predicts where its particle is at the time of each new detection, by a
+//! straight line fitted to its recent detections (constant velocity; the curvature over a
+//! slab is far below a pixel at the flows measured). A detection within the track's gate is
+//! a candidate; the pairs are then taken in order of their distance relative to the gate,
+//! each track and each detection at most once — the nearest pair first, so that an
+//! assignment is the best remaining choice for the track and for the detection alike (the
+//! greedy form of the one-to-one assignment of Wang et al., ECCV 2020). A track that finds
+//! no detection coasts on its prediction, its gate widening, until `max_gap` has passed;
+//! then it ends. Detections no track takes start tracks; a new track's second detection is
+//! searched within `max_speed` × slab of the first, or along the first's own velocity.
+
+use super::detect::{detection_from_events, Detection, TrackEvent};
+use super::params::TrackParams;
+
+/// A track still being built: its detections and their events.
+#[derive(Debug)]
+pub struct LiveTrack {
+    /// Identity, in order of creation.
+    pub id: u64,
+    /// (t µs, x, y) of each detection taken.
+    pub detections: Vec<(f64, f64, f64)>,
+    /// Velocity of the first detection, px/ms, if it had one.
+    first_velocity: Option<(f64, f64)>,
+    /// The events of its detections, in time order.
+    pub events: Vec<TrackEvent>,
+}
+
+impl LiveTrack {
+    fn last_time(&self) -> f64 {
+        self.detections.last().map_or(f64::NEG_INFINITY, |d| d.0)
+    }
+
+    /// Predicted position at `t` and the gate there, px.
+    fn predict(&self, t: f64, params: &TrackParams) -> (f64, f64, f64) {
+        let &(t1, x1, y1) = self.detections.last().expect("a track has a detection");
+        let dt_ms = (t - t1) / 1000.0;
+        let slab_ms = params.slab_us as f64 / 1000.0;
+        // Beyond one slab the gate widens with the time coasted (1 px per ms).
+        let coast = (dt_ms - slab_ms).max(0.0);
+        if self.detections.len() >= 2 {
+            let (u, v) = self.recent_velocity(params);
+            (x1 + u * dt_ms, y1 + v * dt_ms, params.gate_px + coast)
+        } else if let Some((u, v)) = self.first_velocity {
+            // A single detection's velocity is rough: allow half of its travel as error.
+            let travel = (u * u + v * v).sqrt() * dt_ms.abs();
+            (
+                x1 + u * dt_ms,
+                y1 + v * dt_ms,
+                params.gate_px + 0.5 * travel + coast,
+            )
+        } else {
+            (x1, y1, params.gate_px + params.max_speed * dt_ms.abs())
+        }
+    }
+
+    /// Least-squares velocity (px/ms) over the detections of the last 2 ms (at least two).
+    fn recent_velocity(&self, params: &TrackParams) -> (f64, f64) {
+        let last = self.last_time();
+        let span = (2000.0f64).max(2.0 * params.slab_us as f64);
+        let n = self.detections.len();
+        let first = self
+            .detections
+            .iter()
+            .rposition(|d| last - d.0 > span)
+            .map_or(0, |i| i + 1)
+            .min(n - 2);
+        let recent = &self.detections[first..];
+        let k = recent.len() as f64;
+        let (mt, mx, my) = recent.iter().fold((0.0, 0.0, 0.0), |a, d| {
+            (a.0 + d.0 / k, a.1 + d.1 / k, a.2 + d.2 / k)
+        });
+        let (mut tt, mut tx, mut ty) = (0.0, 0.0, 0.0);
+        for d in recent {
+            let dt = (d.0 - mt) / 1000.0;
+            tt += dt * dt;
+            tx += dt * (d.1 - mx);
+            ty += dt * (d.2 - my);
+        }
+        if tt <= 0.0 {
+            return (0.0, 0.0);
+        }
+        (tx / tt, ty / tt)
+    }
+}
+
+/// Links detections slab by slab and hands over the tracks that have ended.
+pub struct Linker {
+    params: TrackParams,
+    live: Vec<LiveTrack>,
+    next_id: u64,
+}
+
+impl Linker {
+    /// A linker with no tracks.
+    pub fn new(params: TrackParams) -> Self {
+        Linker {
+            params,
+            live: Vec::new(),
+            next_id: 0,
+        }
+    }
+
+    /// Number of tracks alive.
+    pub fn live_count(&self) -> usize {
+        self.live.len()
+    }
+
+    /// Let the tracks of known velocity claim the events of a slab (time order): each event
+    /// within `gate` of a track's predicted position at its time goes to the nearest such
+    /// track. Returns the detections of the tracks that claimed at least `min_events` (by
+    /// track index) and the events left for clustering, in time order.
+    pub fn claim(&self, events: &[TrackEvent]) -> (Vec<(usize, Detection)>, Vec<TrackEvent>) {
+        let Some(first) = events.first() else {
+            return (Vec::new(), Vec::new());
+        };
+        let t_mid = (first.t + events[events.len() - 1].t) as f64 / 2.0;
+        let gate = self.params.gate_px;
+        let cell = 8.0f64.max(2.0 * gate);
+        // (track, last detection, velocity) of the tracks that can claim.
+        let movers: Vec<(usize, (f64, f64, f64), (f64, f64))> = self
+            .live
+            .iter()
+            .enumerate()
+            .filter(|(_, t)| t.detections.len() >= 2)
+            .map(|(i, t)| {
+                (
+                    i,
+                    *t.detections.last().expect("two detections"),
+                    t.recent_velocity(&self.params),
+                )
+            })
+            .collect();
+        if movers.is_empty() {
+            return (Vec::new(), events.to_vec());
+        }
+        let mut grid: std::collections::HashMap<(i64, i64), Vec<usize>> =
+            std::collections::HashMap::new();
+        for (k, (_, d, vel)) in movers.iter().enumerate() {
+            let dt = (t_mid - d.0) / 1000.0;
+            let (px, py) = (d.1 + vel.0 * dt, d.2 + vel.1 * dt);
+            grid.entry(((px / cell).floor() as i64, (py / cell).floor() as i64))
+                .or_default()
+                .push(k);
+        }
+        let mut claimed: Vec<Vec<TrackEvent>> = vec![Vec::new(); movers.len()];
+        let mut owner: Vec<Option<usize>> = Vec::with_capacity(events.len());
+        for e in events {
+            let (ex, ey) = (e.x as f64, e.y as f64);
+            let (cx, cy) = ((ex / cell).floor() as i64, (ey / cell).floor() as i64);
+            let mut best: Option<(f64, usize)> = None;
+            for bx in cx - 1..=cx + 1 {
+                for by in cy - 1..=cy + 1 {
+                    for &k in grid.get(&(bx, by)).into_iter().flatten() {
+                        let (_, d, vel) = movers[k];
+                        let dt = (e.t as f64 - d.0) / 1000.0;
+                        let dist2 =
+                            (ex - d.1 - vel.0 * dt).powi(2) + (ey - d.2 - vel.1 * dt).powi(2);
+                        if dist2 <= gate * gate && best.is_none_or(|b| dist2 < b.0) {
+                            best = Some((dist2, k));
+                        }
+                    }
+                }
+            }
+            owner.push(best.map(|b| b.1));
+        }
+        for (e, o) in events.iter().zip(&owner) {
+            if let Some(k) = o {
+                claimed[*k].push(*e);
+            }
+        }
+        let min = self.params.min_events as usize;
+        let mut rest = Vec::new();
+        for (e, o) in events.iter().zip(&owner) {
+            if o.is_none_or(|k| claimed[k].len() < min) {
+                rest.push(*e);
+            }
+        }
+        let detections = claimed
+            .into_iter()
+            .enumerate()
+            .filter(|(_, c)| c.len() >= min)
+            .map(|(k, c)| (movers[k].0, detection_from_events(c)))
+            .collect();
+        (detections, rest)
+    }
+
+    /// Take a slab ending at `slab_end` (µs): the detections of tracks that claimed events
+    /// ([`Linker::claim`]) and the clusters of the other events. Returns the tracks that
+    /// ended (no detection for `max_gap` before `slab_end`).
+    pub fn step(
+        &mut self,
+        claimed: Vec<(usize, Detection)>,
+        detections: Vec<Detection>,
+        slab_end: f64,
+    ) -> Vec<LiveTrack> {
+        let mut busy = vec![false; self.live.len()];
+        for (track, d) in claimed {
+            busy[track] = true;
+            let live = &mut self.live[track];
+            live.detections.push((d.t, d.x, d.y));
+            live.events.extend_from_slice(&d.events);
+        }
+        let assigned = self.assign(&detections, &busy);
+        let mut detections: Vec<Option<Detection>> = detections.into_iter().map(Some).collect();
+        for (track, det) in assigned {
+            let d = detections[det]
+                .take()
+                .expect("each detection is assigned once");
+            let live = &mut self.live[track];
+            live.detections.push((d.t, d.x, d.y));
+            live.events.extend_from_slice(&d.events);
+        }
+        // Ended tracks leave before the new ones start.
+        let max_gap = self.params.max_gap_us as f64;
+        let (ended, live): (Vec<_>, Vec<_>) = std::mem::take(&mut self.live)
+            .into_iter()
+            .partition(|t| slab_end - t.last_time() > max_gap);
+        self.live = live;
+        for d in detections.into_iter().flatten() {
+            self.live.push(LiveTrack {
+                id: self.next_id,
+                detections: vec![(d.t, d.x, d.y)],
+                first_velocity: d.velocity,
+                events: d.events,
+            });
+            self.next_id += 1;
+        }
+        ended
+    }
+
+    /// Every remaining track, ended by the end of the events.
+    pub fn finish(&mut self) -> Vec<LiveTrack> {
+        std::mem::take(&mut self.live)
+    }
+
+    /// One-to-one pairs (track index, detection index) of the tracks not `busy`, nearest
+    /// relative distance first.
+    fn assign(&self, detections: &[Detection], busy: &[bool]) -> Vec<(usize, usize)> {
+        if detections.is_empty() || self.live.is_empty() {
+            return Vec::new();
+        }
+        // Detections bucketed on a coarse grid for the candidate search.
+        let cell = 16.0;
+        let mut buckets: std::collections::HashMap<(i64, i64), Vec<usize>> =
+            std::collections::HashMap::new();
+        for (i, d) in detections.iter().enumerate() {
+            let key = ((d.x / cell).floor() as i64, (d.y / cell).floor() as i64);
+            buckets.entry(key).or_default().push(i);
+        }
+        let t_ref = detections.iter().map(|d| d.t).sum::<f64>() / detections.len() as f64;
+        let mut pairs: Vec<(f64, usize, usize)> = Vec::new();
+        for (ti, track) in self.live.iter().enumerate() {
+            if busy[ti] {
+                continue;
+            }
+            let (px, py, gate) = track.predict(t_ref, &self.params);
+            let reach = ((gate / cell).ceil() as i64).max(1);
+            let (cx, cy) = ((px / cell).floor() as i64, (py / cell).floor() as i64);
+            for bx in cx - reach..=cx + reach {
+                for by in cy - reach..=cy + reach {
+                    let Some(list) = buckets.get(&(bx, by)) else {
+                        continue;
+                    };
+                    for &di in list {
+                        let d = &detections[di];
+                        let (qx, qy, gate) = track.predict(d.t, &self.params);
+                        let dist = ((d.x - qx).powi(2) + (d.y - qy).powi(2)).sqrt();
+                        if dist <= gate {
+                            pairs.push((dist / gate, ti, di));
+                        }
+                    }
+                }
+            }
+        }
+        pairs.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)).then(a.2.cmp(&b.2)));
+        let mut track_taken = vec![false; self.live.len()];
+        let mut det_taken = vec![false; detections.len()];
+        let mut out = Vec::new();
+        for (_, ti, di) in pairs {
+            if !track_taken[ti] && !det_taken[di] {
+                track_taken[ti] = true;
+                det_taken[di] = true;
+                out.push((ti, di));
+            }
+        }
+        out
+    }
+}
