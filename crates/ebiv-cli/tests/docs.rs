@@ -8,7 +8,7 @@ use std::path::PathBuf;
 
 /// Where commands are described: the commands, the page, and the heading that opens their
 /// section (the section runs to the next heading of the same level), or the whole page.
-const PAGES: [(&[&str], &str, Option<&str>); 11] = [
+const PAGES: [(&[&str], &str, Option<&str>); 12] = [
     (&["info"], "commands.md", Some("## `ebiv info")),
     (&["index"], "commands.md", Some("## `ebiv index")),
     (&["convert"], "commands.md", Some("## `ebiv convert")),
@@ -19,6 +19,7 @@ const PAGES: [(&[&str], &str, Option<&str>); 11] = [
     (&["process"], "process.md", None),
     (&["simulate"], "simulate.md", None),
     (&["study"], "study.md", None),
+    (&["track"], "tracking.md", Some("## Options")),
     (
         &[
             "bench decode",
@@ -26,6 +27,7 @@ const PAGES: [(&[&str], &str, Option<&str>); 11] = [
             "bench process",
             "bench piv",
             "bench envelope",
+            "bench track",
         ],
         "performance.md",
         Some("## Running the benchmarks"),
@@ -196,9 +198,9 @@ fn help_and_reference_pages_name_the_same_options() {
 
 /// The ebiv commands a line runs (`ebiv process …` gives `process`).
 fn named_commands(line: &str) -> Vec<String> {
-    const COMMANDS: [&str; 10] = [
+    const COMMANDS: [&str; 11] = [
         "info", "index", "convert", "render", "frames", "process", "init", "demo", "simulate",
-        "bench",
+        "bench", "track",
     ];
     line.match_indices("ebiv ")
         .filter_map(|(i, _)| {

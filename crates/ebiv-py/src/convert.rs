@@ -45,7 +45,7 @@ pub fn apply_keywords(
 
 /// The text of a reader option: `geometry=(1280, 720)` is `1280x720`, booleans are
 /// `true`/`false`, anything else its `str()`.
-fn reader_option_text(key: &str, value: &Bound<'_, PyAny>) -> PyResult<String> {
+pub fn reader_option_text(key: &str, value: &Bound<'_, PyAny>) -> PyResult<String> {
     if value.is_instance_of::<PyBool>() {
         return Ok(value.extract::<bool>()?.to_string());
     }

@@ -1,6 +1,8 @@
 //! The Python package `ebiv` (module `ebiv._ebiv`): reading recordings into NumPy arrays,
 //! and every measurement of the library (`process`, `piv`, `simulate`, `assess`, `write`)
-//! with the settings of the command line and the configuration file as keywords.
+//! with the settings of the command line and the configuration file as keywords, and
+//! particle tracking (`track`, `bin_tracks`, `assess_tracks`) with the settings of
+//! `ebiv track`.
 //!
 //! This crate only converts between Python and the library: settings are the library's
 //! ([`ebiv::settings`]), runs are the library's ([`ebiv::settings::Resolved::measure`]),
@@ -12,6 +14,7 @@ mod errors;
 mod measure;
 mod observe;
 mod recording;
+mod track;
 
 use pyo3::prelude::*;
 
@@ -38,5 +41,9 @@ fn _ebiv(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(measure::write, m)?)?;
     m.add_function(wrap_pyfunction!(measure::setting_names, m)?)?;
     m.add_function(wrap_pyfunction!(measure::examples, m)?)?;
+    m.add_function(wrap_pyfunction!(track::track, m)?)?;
+    m.add_function(wrap_pyfunction!(track::bin_tracks, m)?)?;
+    m.add_function(wrap_pyfunction!(track::assess_tracks, m)?)?;
+    m.add_function(wrap_pyfunction!(track::track_setting_names, m)?)?;
     Ok(())
 }

@@ -99,7 +99,10 @@ fn warn(py: Python<'_>, message: &str) -> PyResult<()> {
 }
 
 /// The NetCDF dataset of `series` as the Python structure of [`dataset_to_py`].
-fn series_to_py<'py>(py: Python<'py>, series: &FieldSeries) -> PyResult<Bound<'py, PyDict>> {
+pub(crate) fn series_to_py<'py>(
+    py: Python<'py>,
+    series: &FieldSeries,
+) -> PyResult<Bound<'py, PyDict>> {
     let dataset = netcdf_dataset(series)
         .map_err(|m| ebiv::Error::Write {
             what: "the dataset".into(),
@@ -111,12 +114,12 @@ fn series_to_py<'py>(py: Python<'py>, series: &FieldSeries) -> PyResult<Bound<'p
 
 /// Where the events of `process` come from: a path, or arrays `(t, x, y, p)` (a tuple, a
 /// list, an object with those attributes, or a mapping with those keys).
-enum Input {
+pub(crate) enum Input {
     Path(PathBuf),
     Arrays(ebiv::EventBuffer),
 }
 
-fn input_of(source: &Bound<'_, PyAny>) -> PyResult<Input> {
+pub(crate) fn input_of(source: &Bound<'_, PyAny>) -> PyResult<Input> {
     if is_path(source)? {
         return Ok(Input::Path(source.extract()?));
     }
@@ -315,7 +318,7 @@ pub fn piv<'py>(
 }
 
 /// A scenario from an example name, a file, or TOML text.
-fn scenario_of(scenario: &Bound<'_, PyAny>) -> PyResult<Scenario> {
+pub(crate) fn scenario_of(scenario: &Bound<'_, PyAny>) -> PyResult<Scenario> {
     let text: String = match scenario.extract::<PathBuf>() {
         Ok(path) if path.is_file() => return Scenario::from_file(&path).py_err(),
         _ => scenario.extract().map_err(|_| {

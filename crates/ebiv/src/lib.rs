@@ -34,9 +34,9 @@ pub mod sim;
 mod simd;
 pub mod stats;
 pub mod study;
-pub mod track;
 #[cfg(test)]
 mod test_rng;
+pub mod track;
 pub mod units;
 pub mod validate;
 pub mod volume;

@@ -159,13 +159,7 @@ fn run_tracks(args: &AssessArgs, truth_tracks: &Path) -> Result<(), ebiv::Error>
     let truth = ebiv::export::read_truth_tracks_csv(truth_tracks)?;
     let options = match &scenario {
         Some(s) => ScoreOptions::for_scenario(s),
-        None => {
-            let (w, h) = truth.iter().fold((1.0f64, 1.0f64), |a, p| {
-                (a.0.max(p.x + 1.0), a.1.max(p.y + 1.0))
-            });
-            let sheet = ebiv::sim::particles::SeedingParams::default().sheet_thickness;
-            ScoreOptions::new(w.ceil() as u32, h.ceil() as u32, sheet)
-        }
+        None => ScoreOptions::from_truth(&truth),
     };
     let score = score_tracks(&tracks, &truth, &options);
     println!(

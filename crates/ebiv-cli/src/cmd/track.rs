@@ -5,7 +5,7 @@ use clap::{ArgMatches, Args, FromArgMatches};
 use ebiv::export::{TrackTable, TrackWriter};
 use ebiv::io::EventSource;
 use ebiv::track::bin::{bin_tracks, BinParams};
-use ebiv::track::run::{track_source, TrackInterval};
+use ebiv::track::run::{track_attributes, track_source, TrackInterval};
 use ebiv::track::{TrackParams, TRACK_SETTINGS};
 use std::path::PathBuf;
 use std::time::Instant;
@@ -40,7 +40,7 @@ pub struct TrackArgs {
     pub png: Option<PathBuf>,
     /// Interval tracked, START:END from the first event (e.g. `10ms:60ms`; either end may be
     /// left out).
-    #[arg(long, value_name = "START:END", value_parser = parse_interval)]
+    #[arg(long, value_name = "START:END", value_parser = ebiv::units::parse_range)]
     pub time: Option<(Option<i64>, Option<i64>)>,
     /// Read --time as camera time stamps in µs rather than from the first event.
     #[arg(long)]
@@ -123,22 +123,6 @@ impl Args for TrackSettingArgs {
     }
 }
 
-/// Parse `START:END` (durations with units; either may be empty).
-pub fn parse_interval(text: &str) -> Result<(Option<i64>, Option<i64>), String> {
-    let (a, b) = text
-        .split_once(':')
-        .ok_or_else(|| format!("{text:?}: expected START:END, e.g. 10ms:60ms"))?;
-    let part = |s: &str| -> Result<Option<i64>, String> {
-        let s = s.trim();
-        if s.is_empty() {
-            Ok(None)
-        } else {
-            ebiv::units::parse_us(s).map(Some)
-        }
-    };
-    Ok((part(a)?, part(b)?))
-}
-
 pub fn run(args: &TrackArgs) -> Result<(), ebiv::Error> {
     // Everything that can be checked is checked before reading.
     let params = args.settings.params()?;
@@ -204,11 +188,7 @@ pub fn run(args: &TrackArgs) -> Result<(), ebiv::Error> {
     )?;
     bar.finish_and_clear();
     let seconds = started.elapsed().as_secs_f64();
-    let mut attributes = vec![
-        ("source".to_string(), args.file.display().to_string()),
-        ("method".to_string(), "particle tracking".to_string()),
-    ];
-    attributes.extend(params.describe());
+    let attributes = track_attributes(&args.file.display().to_string(), &params, run.geometry);
     writer.finish(&attributes)?;
     let s = run.summary;
     println!(
@@ -227,7 +207,7 @@ pub fn run(args: &TrackArgs) -> Result<(), ebiv::Error> {
     );
     if let Some(bin) = &bin {
         let mut field = bin_tracks(&table, run.geometry, bin)?;
-        field.attributes.extend(attributes.iter().cloned());
+        ebiv::track::bin::add_track_attributes(&mut field, &attributes);
         ebiv::export::write_field(&field, &field_path)?;
         let valid = field.status.iter().filter(|s| s.is_valid()).count();
         println!(
@@ -240,17 +220,60 @@ pub fn run(args: &TrackArgs) -> Result<(), ebiv::Error> {
         );
     }
     if let Some(dir) = &args.png {
-        write_figures(dir, &table, &source, &run)?;
+        write_figures(dir, &table, &source, &run, params.polarity)?;
     }
     Ok(())
 }
 
+/// Longest interval drawn in the track map: beyond it the tracks would cover each other.
+const FIGURE_SPAN_US: i64 = 50_000;
+
+/// The track map (tracks of the first [`FIGURE_SPAN_US`] of the interval tracked over its
+/// events) and the histograms of all tracks, as PNG files in `dir`.
 fn write_figures(
     dir: &std::path::Path,
     table: &TrackTable,
     source: &EventSource,
     run: &ebiv::track::run::TrackRun,
+    polarity: ebiv::PolaritySelection,
 ) -> Result<(), ebiv::Error> {
-    let _ = (dir, table, source, run);
+    use ebiv::render::tracks::{track_histograms, track_map, TrackMapStyle};
+    use ebiv::render::EventRateMap;
+    let (start, end) = (
+        run.span_us.0,
+        run.span_us
+            .0
+            .saturating_add(FIGURE_SPAN_US)
+            .min(run.span_us.1 + 1),
+    );
+    let mut shown = TrackTable::default();
+    for k in 0..table.len() {
+        if (start..end).contains(&table.t_us[k]) {
+            shown.track_id.push(table.track_id[k]);
+            shown.t_us.push(table.t_us[k]);
+            for (column, values) in shown.values.iter_mut().zip(&table.values) {
+                column.push(values[k]);
+            }
+        }
+    }
+    let mut events = EventRateMap::new(run.geometry);
+    let mut reader = source.open()?;
+    reader.skip_to(start)?;
+    let mut batch = ebiv::EventBuffer::new();
+    while reader.read_batch(&mut batch)? {
+        events.add(&batch, start, end, polarity);
+        if batch.t.first().is_some_and(|&t| t >= end) {
+            break;
+        }
+    }
+    let style = TrackMapStyle {
+        time_origin_us: run.first_event_us,
+        ..TrackMapStyle::default()
+    };
+    let map = track_map(Some(&events), &shown, run.geometry, &style)?;
+    let paths = [dir.join("tracks.png"), dir.join("histograms.png")];
+    ebiv::render::save_png(&map, &paths[0])?;
+    ebiv::render::save_png(&track_histograms(table)?, &paths[1])?;
+    println!("wrote {} and {}", paths[0].display(), paths[1].display());
     Ok(())
 }

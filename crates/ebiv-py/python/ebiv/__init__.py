@@ -11,6 +11,9 @@ with the same setting names (``slab="10ms"``, ``window=[64, 32]``), defaults and
     ds = ebiv.process("recording.raw", method="corrsum", slab="5ms", window=[64, 32])
     ds.u.isel(time=0).plot()
 
+Particle tracks (``ebiv track``): ``ebiv.track`` follows single particles, ``ebiv.bin_tracks``
+averages them into a field and ``ebiv.assess_tracks`` scores them against simulated paths.
+
 Long calls release the GIL; Ctrl-C interrupts them. ``ebiv.dask`` spreads many recordings,
 or long ones, over a Dask cluster.
 """
@@ -32,6 +35,8 @@ __all__ = [
     "Recording",
     "Simulation",
     "assess",
+    "assess_tracks",
+    "bin_tracks",
     "examples",
     "index",
     "open",
@@ -39,6 +44,8 @@ __all__ = [
     "process",
     "settings",
     "simulate",
+    "track",
+    "track_settings",
     "write",
     "__version__",
 ]
@@ -317,6 +324,181 @@ def write(field: Any, path: PathLike) -> None:
 def examples() -> Dict[str, str]:
     """The ready scenarios of :func:`simulate`: name and description."""
     return dict(_ebiv.examples())
+
+
+Tracks = Union[PathLike, Any]
+
+
+def track(
+    source: Union[PathLike, Events, Tuple[Any, Any, Any, Any], Dict[str, Any]],
+    *,
+    time: Union[str, Tuple[Union[int, str, None], Union[int, str, None]], None] = None,
+    absolute_time: bool = False,
+    output: Optional[PathLike] = None,
+    progress: Progress = None,
+    **settings: Any,
+) -> Any:
+    """Particle tracks of a recording, as ``ebiv track`` follows them: position, velocity
+    and acceleration at every sample, each with its standard uncertainty, the path's
+    curvature and the fit's quality.
+
+    ``source``: a path (or a :class:`Recording`, with its reader options), or events as
+    arrays ``(t, x, y, p)`` (with ``geometry=(w, h)`` when the largest coordinates are not
+    the sensor's size). ``time``: the interval tracked, ``"START:END"`` text (``"10ms:60ms"``;
+    either end may be left out) or a pair ``(start, end)`` of durations (µs or texts with
+    units, ``None`` for an open end), from the first event or, with ``absolute_time=True``,
+    in µs of camera time. ``settings``: the tracking settings of ``ebiv track`` with ``_``
+    for ``-`` (``slab="500us"``, ``min_events=4``, ``gate=3.0``, ``max_speed``, ``max_gap``,
+    ``min_duration``, ``fit_window``, ``degree``, ``sample``, ``latency``, ``polarity``;
+    :func:`track_settings` lists them with their defaults) and reader options.
+    ``output="tracks.csv"`` (or ``.npz``, ``.nc``) also writes the file, byte for byte the
+    command's.
+
+    Returns an ``xarray.Dataset`` identical to ``xarray.open_dataset`` of the command's
+    ``.nc`` file: one row per sample along ``sample``, the variables ``track_id``, ``t_us``
+    (µs of camera time), ``x``, ``y``, ``u``, ``v``, ``ax``, ``ay``, their uncertainties
+    ``x_unc`` … ``ay_unc``, ``curvature``, ``events`` and ``residual`` with units, and the
+    settings as attributes; without xarray a dict of arrays with ``attrs`` and
+    ``variable_attrs``. ``progress`` counts bytes of the file read. Errors are
+    ``ValueError`` (a setting, ``time``), ``OSError`` (a file) or :class:`EbivError` (the
+    data).
+    """
+    callback, close = _progress(progress, "tracking")
+    try:
+        source = _source(source, settings)
+        raw = _ebiv.track(source, time, absolute_time, output, callback, **settings)
+    finally:
+        close()
+    return _result(raw, True)
+
+
+def _track_columns(tracks: Tracks) -> Tuple[Any, Dict[str, Any]]:
+    """The samples of ``tracks`` as the extension takes them (a CSV file's path as it is,
+    else a dict of column arrays) and the tracks' global attributes."""
+    if isinstance(tracks, (str, os.PathLike)):
+        path = os.fspath(tracks)
+        suffix = os.path.splitext(path)[1].lower()
+        if suffix == ".npz":
+            with np.load(path, allow_pickle=False) as npz:
+                columns = {name: npz[name] for name in npz.files if name != "attributes"}
+                lines = [str(line) for line in npz["attributes"]] if "attributes" in npz.files else []
+            return columns, dict(line.split("=", 1) for line in lines if "=" in line)
+        if suffix != ".nc":
+            return path, {}
+        if not _dataset.have_xarray():
+            raise ImportError(f"reading the tracks of {path} needs xarray; or give the .csv or .npz file")
+        import xarray as xr
+
+        with xr.open_dataset(path) as ds:
+            tracks = ds.load()
+    if hasattr(tracks, "data_vars"):
+        return {name: np.asarray(tracks[name].values) for name in tracks.variables}, dict(tracks.attrs)
+    if hasattr(tracks, "keys"):
+        columns = {k: tracks[k] for k in tracks.keys() if k not in ("attrs", "variable_attrs")}
+        attrs = tracks["attrs"] if "attrs" in tracks.keys() else {}
+        return columns, dict(attrs)
+    raise TypeError(
+        "invalid parameter `tracks`: give tracks as a dataset or dict from ebiv.track, or a track file"
+    )
+
+
+def _track_geometry(geometry: Union[None, str, Tuple[int, int]], attrs: Mapping[str, Any]) -> Tuple[int, int]:
+    """The sensor size: ``geometry`` (``(w, h)`` or ``"WxH"``), else the tracks' attributes
+    ``sensor_width`` and ``sensor_height`` when they state it."""
+    if geometry is None:
+        try:
+            return int(attrs["sensor_width"]), int(attrs["sensor_height"])
+        except (KeyError, TypeError, ValueError):
+            raise ValueError(
+                "invalid parameter `geometry`: give the sensor size (width, height) of the recording "
+                "the tracks come from (as ebiv.open(path).geometry or ebiv.simulate(...).geometry "
+                "give it); the tracks do not state it"
+            ) from None
+    try:
+        if isinstance(geometry, str):
+            width, height = geometry.lower().split("x")
+            return int(width), int(height)
+        width, height = geometry
+        return int(width), int(height)
+    except (TypeError, ValueError):
+        raise ValueError(
+            f"invalid parameter `geometry`: {geometry!r}: give (width, height) or \"WxH\""
+        ) from None
+
+
+def bin_tracks(
+    tracks: Tracks,
+    bin: float = 16,  # noqa: A002 (the flag --bin)
+    *,
+    interval: Union[int, str, None] = None,
+    min_tracks: int = 3,
+    geometry: Union[None, str, Tuple[int, int]] = None,
+    decode_times: bool = True,
+) -> Any:
+    """The mean velocity field of tracks, as ``ebiv track --bin`` writes it to ``--field``:
+    the velocities of the samples averaged in square bins of ``bin`` px, one field per
+    ``interval`` (µs or "100ms"; ``None``: one over all tracks), a bin crossed by fewer than
+    ``min_tracks`` tracks left invalid.
+
+    ``tracks``: a dataset or dict from :func:`track`, a dict of the columns (``track_id``,
+    ``t_us``, ``x``, ``y``, ``u``, ``v`` at least), or a track file (.csv, .npz; .nc with
+    xarray). ``geometry``: the sensor size ``(width, height)`` the grid covers; the track
+    files do not state it, so it must be given (``ebiv.open(path).geometry``). The tracks'
+    attributes (settings and source) are added to the field's, as the command adds them.
+
+    Returns the dataset :func:`process` returns (``u``, ``v``, ``u_unc``, ``v_unc``,
+    ``status``, …; ``event_count`` holds the samples of a bin, ``slab_us`` the interval),
+    identical to ``xarray.open_dataset`` of the command's field file.
+    """
+    columns, attrs = _track_columns(tracks)
+    size = _track_geometry(geometry, attrs)
+    own = [(k, v) for k, v in attrs.items() if isinstance(v, str) and k != "software"]
+    raw = _ebiv.bin_tracks(columns, size, float(bin), interval, min_tracks, own)
+    return _result(raw, decode_times)
+
+
+def assess_tracks(
+    tracks: Tracks,
+    truth_tracks: Union[PathLike, Mapping[str, Any], "Simulation"],
+    *,
+    scenario: Union[str, PathLike, None] = None,
+    truth_example: Optional[str] = None,
+) -> Dict[str, Any]:
+    """Tracks scored against the simulator's particle paths, as ``ebiv assess TRACKS
+    --truth-tracks TRUTH`` scores them (its ``tracks.json``).
+
+    ``tracks``: as :func:`bin_tracks` takes them. ``truth_tracks``: the paths
+    ``ebiv simulate --tracks`` writes (a CSV file), or those of
+    ``ebiv.simulate(..., tracks=True)`` (the :class:`Simulation` or its ``tracks``).
+    ``scenario`` (a ready example's name, a scenario file or its TOML text) or
+    ``truth_example`` (a ready example) gives the image, light sheet and walls that decide
+    which particles are in view; neither: the paths' extent and the default light sheet.
+
+    Returns a dict: ``particles`` (in view long enough to count), ``particles_tracked``,
+    ``yield_fraction``, ``tracks``, ``spurious``, ``spurious_fraction``, ``mean_length_ms``,
+    ``samples``, ``position_rms``, ``position_bias_along``, ``velocity_rms``,
+    ``acceleration_rms``, ``peak_speed``, ``peak_acceleration``,
+    ``velocity_coverage_2sigma``, ``position_coverage_2sigma`` and ``lag_us``.
+    """
+    columns, _ = _track_columns(tracks)
+    if isinstance(truth_tracks, Simulation):
+        if truth_tracks.tracks is None:
+            raise ValueError(
+                "invalid parameter `truth_tracks`: the simulation has no tracks; simulate with tracks=True"
+            )
+        truth_tracks = truth_tracks.tracks
+    if not isinstance(truth_tracks, (str, os.PathLike)) and hasattr(truth_tracks, "keys"):
+        truth_tracks = {k: truth_tracks[k] for k in truth_tracks.keys()}
+    return _ebiv.assess_tracks(columns, truth_tracks, scenario, truth_example)
+
+
+def track_settings() -> Dict[str, Dict[str, Any]]:
+    """Every tracking setting :func:`track` takes as a keyword: the kind of value, default
+    and summary, from the one list the flags of ``ebiv track`` are made of."""
+    return {
+        key: {"value": value, "default": default, "summary": summary}
+        for key, value, default, summary in _ebiv.track_setting_names()
+    }
 
 
 #: Settings of ``ebiv process`` that Python takes elsewhere: the recording is ``source``,

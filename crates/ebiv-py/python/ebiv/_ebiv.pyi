@@ -176,3 +176,42 @@ def setting_names() -> List[Tuple[str, str, Optional[str], str]]:
 
 def examples() -> List[Tuple[str, str]]:
     """The ready scenarios of ``simulate``: ``(name, description)``."""
+
+#: Particle tracks: a track file (CSV; ``track`` writes .csv, .npz, .nc), or the columns
+#: of ``TRACK_COLUMNS`` as a dict of 1-D arrays (``track_id``, ``t_us``, ``x``, ``y``,
+#: ``u``, ``v`` needed; the others NaN when absent).
+_TrackColumns = Union[_StrPath, Dict[str, ArrayLike]]
+
+def track(
+    source: _Source,
+    time: Union[str, Tuple[Optional[_Duration], Optional[_Duration]], None] = None,
+    absolute_time: bool = False,
+    output: Optional[_StrPath] = None,
+    progress: _Progress = None,
+    **settings: Any,
+) -> _RawDataset:
+    """Particle tracks of a recording or event arrays with ``ebiv track``'s settings as keywords
+    (``progress`` counts bytes of the file); ``output`` also writes .csv, .npz or .nc."""
+
+def bin_tracks(
+    tracks: _TrackColumns,
+    geometry: Tuple[int, int],
+    bin: float = 16.0,
+    interval: Optional[_Duration] = None,
+    min_tracks: int = 3,
+    attributes: List[Tuple[str, str]] = ...,
+) -> _RawDataset:
+    """The mean field of tracks in square bins on a sensor of ``geometry`` (``ebiv track --bin``),
+    with ``attributes`` added to the field's."""
+
+def assess_tracks(
+    tracks: _TrackColumns,
+    truth_tracks: Union[_StrPath, Dict[str, ArrayLike]],
+    scenario: Union[str, _StrPath, None] = None,
+    truth_example: Optional[str] = None,
+) -> Dict[str, Any]:
+    """Tracks scored against the simulator's particle paths, as ``ebiv assess --truth-tracks``
+    writes them to ``tracks.json``."""
+
+def track_setting_names() -> List[Tuple[str, str, str, str]]:
+    """Every setting of ``ebiv track``: ``(keyword, kind of value, default, summary)``."""

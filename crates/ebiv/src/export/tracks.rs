@@ -65,6 +65,41 @@ impl TrackTable {
         self.t_us.is_empty()
     }
 
+    /// The tracks of the table: one per run of consecutive samples of one identity (the
+    /// counts of events and outliers, which the table does not hold, are 0).
+    pub fn tracks(&self) -> Vec<Track> {
+        let v = &self.values;
+        let mut tracks: Vec<Track> = Vec::new();
+        for (k, (&id, &t_us)) in self.track_id.iter().zip(&self.t_us).enumerate() {
+            let sample = crate::track::TrackSample {
+                t_us,
+                x: v[0][k],
+                y: v[1][k],
+                u: v[2][k],
+                v: v[3][k],
+                ax: v[4][k],
+                ay: v[5][k],
+                unc: [v[6][k], v[7][k], v[8][k], v[9][k], v[10][k], v[11][k]],
+                events: v[13][k] as u32,
+                residual: v[14][k],
+            };
+            match tracks.last_mut() {
+                Some(t) if t.id == id => {
+                    t.span_us.1 = sample.t_us;
+                    t.samples.push(sample);
+                }
+                _ => tracks.push(Track {
+                    id,
+                    samples: vec![sample],
+                    events: 0,
+                    outliers: 0,
+                    span_us: (sample.t_us, sample.t_us),
+                }),
+            }
+        }
+        tracks
+    }
+
     /// Append the samples of `track`.
     pub fn push(&mut self, track: &Track) {
         for s in &track.samples {
@@ -348,36 +383,15 @@ fn read_csv_columns(path: &Path, columns: &[&str]) -> Result<Vec<Vec<f64>>> {
 pub fn read_tracks_csv(path: &Path) -> Result<Vec<Track>> {
     let names: Vec<&str> = TRACK_COLUMNS.iter().map(|c| c.0).collect();
     let rows = read_csv_columns(path, &names)?;
-    let mut tracks: Vec<Track> = Vec::new();
+    let mut table = TrackTable::default();
     for r in rows {
-        let id = r[0] as u64;
-        let sample = crate::track::TrackSample {
-            t_us: r[1] as i64,
-            x: r[2],
-            y: r[3],
-            u: r[4],
-            v: r[5],
-            ax: r[6],
-            ay: r[7],
-            unc: [r[8], r[9], r[10], r[11], r[12], r[13]],
-            events: r[15] as u32,
-            residual: r[16],
-        };
-        match tracks.last_mut() {
-            Some(t) if t.id == id => {
-                t.span_us.1 = sample.t_us;
-                t.samples.push(sample);
-            }
-            _ => tracks.push(Track {
-                id,
-                samples: vec![sample],
-                events: 0,
-                outliers: 0,
-                span_us: (sample.t_us, sample.t_us),
-            }),
+        table.track_id.push(r[0] as u64);
+        table.t_us.push(r[1] as i64);
+        for (column, value) in table.values.iter_mut().zip(&r[2..]) {
+            column.push(*value);
         }
     }
-    Ok(tracks)
+    Ok(table.tracks())
 }
 
 /// Read true particle paths as `ebiv simulate --tracks` writes them (id,t_us,x,y,z,u,v).

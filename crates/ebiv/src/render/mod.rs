@@ -15,6 +15,7 @@ mod line_plot;
 mod palette;
 pub mod plot;
 mod rate_map;
+pub mod tracks;
 mod vector_map;
 
 pub use animation::{series_animation, write_gif};
@@ -33,6 +34,7 @@ pub use histogram::{
 pub use histogram2d::{histogram2d_figure, Histogram2d};
 pub use line_plot::{line_plot, LinePlot, Series, SeriesStyle, XAxis, SERIES_COLOURS};
 pub use rate_map::{EventRateMap, RateMapImage};
+pub use tracks::{track_histograms, track_map, TrackMapStyle};
 pub use vector_map::{auto_stride, vector_map, VectorMapStyle, MAX_ARROWS_ACROSS, MIN_ARROW_GAP};
 
 use crate::error::{Error, Result};

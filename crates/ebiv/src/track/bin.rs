@@ -114,7 +114,7 @@ pub fn bin_tracks(
         let col = ((x + 0.5) / step).floor();
         let row = ((y + 0.5) / step).floor();
         let inside = col >= 0.0 && row >= 0.0 && (col as usize) < nx && (row as usize) < ny;
-        if !inside || !(u.is_finite() && v.is_finite()) {
+        if !(inside && u.is_finite() && v.is_finite()) {
             continue;
         }
         let ti = ((tracks.t_us[k] - origin) / interval) as usize;
@@ -152,4 +152,14 @@ pub fn bin_tracks(
         .push(("method".into(), "track binning".into()));
     series.attributes.push(("bin_px".into(), format!("{step}")));
     Ok(series)
+}
+
+/// Add the attributes of the tracks (source, settings) to a binned field, leaving out those
+/// the field states itself (its `method`).
+pub fn add_track_attributes(field: &mut FieldSeries, attributes: &[(String, String)]) {
+    for (key, value) in attributes {
+        if !field.attributes.iter().any(|(k, _)| k == key) {
+            field.attributes.push((key.clone(), value.clone()));
+        }
+    }
 }

@@ -21,6 +21,7 @@
 //! share its position, so the independent samples are the bursts, not the events.
 
 use super::detect::TrackEvent;
+use super::matrix::{cholesky_inverse, dot, mat_vec, sandwich, MAX_TERMS};
 use super::params::TrackParams;
 
 /// One sample of a fitted track.
@@ -79,14 +80,22 @@ impl Track {
     }
 }
 
+/// Spacing of the first pass's fits, which find the outliers, µs: the local cubic holds
+/// within a millisecond of its centre.
+const OUTLIER_PASS_US: f64 = 2000.0;
+
 /// Fewest events in a fit window.
 const MIN_FIT_EVENTS: usize = 30;
 
+/// Fewest events on either side of a sample: a sample is never an extrapolation.
+const MIN_SIDE_EVENTS: f64 = 4.0;
+
+/// Highest degree of a fit whose window holds less than a fifth of its events on one side
+/// of the sample (near a track's ends).
+const END_DEGREE: u32 = 2;
+
 /// Most a fit window is widened to find [`MIN_FIT_EVENTS`] on both sides of a sample.
 const MAX_WIDENING: f64 = 3.0;
-
-/// Largest number of unknowns per axis: a cubic and the polarity term.
-const MAX_TERMS: usize = 5;
 
 /// Normal equations of one window.
 struct Normal {
@@ -115,64 +124,6 @@ fn row(t: f64, s: f64, degree: usize, polarity: bool) -> ([f64; MAX_TERMS], usiz
     (r, n)
 }
 
-/// The inverse of the symmetric positive definite `m` (its first n × n), by Cholesky;
-/// `None` when it is singular.
-fn cholesky_inverse(
-    m: &[[f64; MAX_TERMS]; MAX_TERMS],
-    n: usize,
-) -> Option<[[f64; MAX_TERMS]; MAX_TERMS]> {
-    let mut l = [[0.0; MAX_TERMS]; MAX_TERMS];
-    for i in 0..n {
-        for j in 0..=i {
-            let mut sum = m[i][j];
-            for k in 0..j {
-                sum -= l[i][k] * l[j][k];
-            }
-            if i == j {
-                if sum <= m[i][i] * 1e-12 || sum <= 0.0 {
-                    return None;
-                }
-                l[i][i] = sum.sqrt();
-            } else {
-                l[i][j] = sum / l[j][j];
-            }
-        }
-    }
-    // Inverse of L, then M⁻¹ = L⁻ᵀ L⁻¹.
-    let mut li = [[0.0; MAX_TERMS]; MAX_TERMS];
-    for i in 0..n {
-        li[i][i] = 1.0 / l[i][i];
-        for j in 0..i {
-            let mut sum = 0.0;
-            for k in j..i {
-                sum -= l[i][k] * li[k][j];
-            }
-            li[i][j] = sum / l[i][i];
-        }
-    }
-    let mut inv = [[0.0; MAX_TERMS]; MAX_TERMS];
-    for i in 0..n {
-        for j in 0..n {
-            let mut sum = 0.0;
-            for k in i.max(j)..n {
-                sum += li[k][i] * li[k][j];
-            }
-            inv[i][j] = sum;
-        }
-    }
-    Some(inv)
-}
-
-fn mat_vec(m: &[[f64; MAX_TERMS]; MAX_TERMS], v: &[f64; MAX_TERMS], n: usize) -> [f64; MAX_TERMS] {
-    let mut out = [0.0; MAX_TERMS];
-    for i in 0..n {
-        for j in 0..n {
-            out[i] += m[i][j] * v[j];
-        }
-    }
-    out
-}
-
 /// A local fit at one time: coefficients for x and y and their covariance.
 struct LocalFit {
     ax: [f64; MAX_TERMS],
@@ -185,6 +136,8 @@ struct LocalFit {
     residual: f64,
     /// Whether the polarity term was fitted.
     polarity: bool,
+    /// Degree of the polynomial.
+    degree: usize,
 }
 
 /// Events of one polarity within one [`BIN_US`] time bin, grouped: the fit treats them as
@@ -306,21 +259,29 @@ impl<'a> PathFitter<'a> {
         if times.is_empty() {
             times.push(((first + last) / 2.0).round());
         }
-        // First pass, residuals of every event from the nearest sample's fit.
-        let first_pass: Vec<Option<LocalFit>> = times.iter().map(|&t| self.local(t)).collect();
+        // First pass: fits every [`OUTLIER_PASS_US`], and the residual of every event from
+        // the nearest of them.
+        let coarse: Vec<f64> = {
+            let stride = ((OUTLIER_PASS_US / step).round() as usize).max(1);
+            let mut c: Vec<f64> = times.iter().step_by(stride).copied().collect();
+            if c.last() != times.last() {
+                c.extend(times.last());
+            }
+            c
+        };
+        let first_pass: Vec<Option<LocalFit>> = coarse.iter().map(|&t| self.local(t)).collect();
         let mut residuals = Vec::with_capacity(n);
         let mut nearest = 0usize;
-        let degree = self.params.degree as usize;
         for i in 0..n {
             let t = self.times[i];
-            while nearest + 1 < times.len()
-                && (times[nearest + 1] - t).abs() < (times[nearest] - t).abs()
+            while nearest + 1 < coarse.len()
+                && (coarse[nearest + 1] - t).abs() < (coarse[nearest] - t).abs()
             {
                 nearest += 1;
             }
             residuals.push(match &first_pass[nearest] {
                 Some(fit) => {
-                    let (px, py) = fit.position_at(t - times[nearest], self.signs[i], degree);
+                    let (px, py) = fit.position_at(t - coarse[nearest], self.signs[i]);
                     ((self.xs[i] - px).powi(2) + (self.ys[i] - py).powi(2)).sqrt()
                 }
                 None => f64::NAN,
@@ -349,10 +310,7 @@ impl<'a> PathFitter<'a> {
         }
         let samples = times
             .iter()
-            .filter_map(|&t| {
-                self.local(t)
-                    .map(|f| f.sample(t, self.burst, self.params.degree))
-            })
+            .filter_map(|&t| self.local(t).map(|f| f.sample(t, self.burst)))
             .collect();
         (samples, outliers)
     }
@@ -365,27 +323,35 @@ impl<'a> PathFitter<'a> {
         let base = self.params.fit_window_us as f64 / 2.0;
         let mut half = base;
         let points = &self.points;
-        let (lo, hi) = loop {
+        let (lo, hi, degree) = loop {
             let lo = points.partition_point(|p| p.t < t - half);
             let mid = points.partition_point(|p| p.t < t);
             let hi = points.partition_point(|p| p.t <= t + half);
             let count = |a: usize, b: usize| points[a..b].iter().map(|p| p.n).sum::<f64>();
             let (left, right) = (count(lo, mid), count(mid, hi));
             let total = left + right;
-            if total >= MIN_FIT_EVENTS as f64 && 5.0 * left >= total && 5.0 * right >= total {
-                break (lo, hi);
+            if total >= MIN_FIT_EVENTS as f64 && left >= MIN_SIDE_EVENTS && right >= MIN_SIDE_EVENTS
+            {
+                // Near a track's end the window is lopsided: a lower degree extrapolates
+                // less from the side with the events.
+                let lopsided = 5.0 * left.min(right) < total;
+                let degree = if lopsided {
+                    self.params.degree.min(END_DEGREE)
+                } else {
+                    self.params.degree
+                };
+                break (lo, hi, degree as usize);
             }
             if half >= base * MAX_WIDENING {
                 return None;
             }
             half = (half * 1.5).min(base * MAX_WIDENING);
         };
-        self.fit_window(t, half, &points[lo..hi])
+        self.fit_window(t, half, &points[lo..hi], degree)
     }
 
     /// The weighted fit at `t` over `points`, within `half` µs of it.
-    fn fit_window(&self, t: f64, half: f64, points: &[Point]) -> Option<LocalFit> {
-        let degree = self.params.degree as usize;
+    fn fit_window(&self, t: f64, half: f64, points: &[Point], degree: usize) -> Option<LocalFit> {
         let has_on = points.iter().any(|p| p.s > 0.0);
         let has_off = points.iter().any(|p| p.s < 0.0);
         let polarity = has_on && has_off;
@@ -453,11 +419,7 @@ impl<'a> PathFitter<'a> {
                 continue;
             }
             let (r, _) = row(dt, p.s, degree, polarity);
-            let (mut px, mut py) = (0.0, 0.0);
-            for k in 0..nt {
-                px += r[k] * ax[k];
-                py += r[k] * ay[k];
-            }
+            let (px, py) = (dot(&r, &ax, nt), dot(&r, &ay, nt));
             rx += w * (p.n * (p.x - px).powi(2) + p.scatter / 2.0);
             ry += w * (p.n * (p.y - py).powi(2) + p.scatter / 2.0);
         }
@@ -468,24 +430,10 @@ impl<'a> PathFitter<'a> {
         let var_x = rx / normal.sum_w * correction;
         let var_y = ry / normal.sum_w * correction;
         // Sandwich covariance per unit variance: M⁻¹ M2 M⁻¹.
-        let mut tmp = [[0.0; MAX_TERMS]; MAX_TERMS];
-        for i in 0..nt {
-            for j in 0..nt {
-                for k in 0..nt {
-                    tmp[i][j] += inv[i][k] * normal.m2[k][j];
-                }
-            }
-        }
-        let mut cov = [[0.0; MAX_TERMS]; MAX_TERMS];
-        for i in 0..nt {
-            for j in 0..nt {
-                for k in 0..nt {
-                    cov[i][j] += tmp[i][k] * inv[k][j];
-                }
-            }
-        }
+        let cov = sandwich(&inv, &normal.m2, nt);
         Some(LocalFit {
             polarity,
+            degree,
             ax,
             ay,
             cov,
@@ -499,20 +447,15 @@ impl<'a> PathFitter<'a> {
 
 impl LocalFit {
     /// Position of an event of sign `s` at `dt` µs from the fit's centre.
-    fn position_at(&self, dt_us: f64, s: f64, degree: usize) -> (f64, f64) {
-        let (r, nt) = row(dt_us / 1000.0, s, degree, self.polarity);
-        let (mut x, mut y) = (0.0, 0.0);
-        for k in 0..nt {
-            x += r[k] * self.ax[k];
-            y += r[k] * self.ay[k];
-        }
-        (x, y)
+    fn position_at(&self, dt_us: f64, s: f64) -> (f64, f64) {
+        let (r, nt) = row(dt_us / 1000.0, s, self.degree, self.polarity);
+        (dot(&r, &self.ax, nt), dot(&r, &self.ay, nt))
     }
 
     /// The sample at `t`, the particle's time (µs; the event times less the latency).
-    fn sample(&self, t: f64, burst: f64, degree: u32) -> TrackSample {
+    fn sample(&self, t: f64, burst: f64) -> TrackSample {
         let sd = |k: usize, var: f64| (self.cov[k][k] * var * burst).sqrt();
-        let acc = degree >= 2;
+        let acc = self.degree >= 2;
         TrackSample {
             t_us: t.round() as i64,
             x: self.ax[0],

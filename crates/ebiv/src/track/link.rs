@@ -92,6 +92,34 @@ impl LiveTrack {
     }
 }
 
+/// A track that claims events: its index, last detection (t µs, x, y) and velocity (px/ms).
+type Mover = (usize, (f64, f64, f64), (f64, f64));
+
+/// Grid cells (column, row) to the indices of what lies in them.
+type CellMap =
+    std::collections::HashMap<(i64, i64), Vec<usize>, std::hash::BuildHasherDefault<CellHasher>>;
+
+/// A fast hash of grid cells (a multiplicative hash of the two coordinates): the cell keys
+/// come from the program, not from an adversary.
+#[derive(Default)]
+pub struct CellHasher(u64);
+
+impl std::hash::Hasher for CellHasher {
+    fn finish(&self) -> u64 {
+        self.0
+    }
+
+    fn write(&mut self, bytes: &[u8]) {
+        for &b in bytes {
+            self.0 = (self.0.rotate_left(5) ^ u64::from(b)).wrapping_mul(0x51_7c_c1_b7_27_22_0a_95);
+        }
+    }
+
+    fn write_i64(&mut self, value: i64) {
+        self.0 = (self.0.rotate_left(5) ^ value as u64).wrapping_mul(0x51_7c_c1_b7_27_22_0a_95);
+    }
+}
+
 /// Links detections slab by slab and hands over the tracks that have ended.
 pub struct Linker {
     params: TrackParams,
@@ -125,8 +153,8 @@ impl Linker {
         let t_mid = (first.t + events[events.len() - 1].t) as f64 / 2.0;
         let gate = self.params.gate_px;
         let cell = 8.0f64.max(2.0 * gate);
-        // (track, last detection, velocity) of the tracks that can claim.
-        let movers: Vec<(usize, (f64, f64, f64), (f64, f64))> = self
+        // The tracks that can claim: (track, last detection, velocity).
+        let movers: Vec<Mover> = self
             .live
             .iter()
             .enumerate()
@@ -142,8 +170,7 @@ impl Linker {
         if movers.is_empty() {
             return (Vec::new(), events.to_vec());
         }
-        let mut grid: std::collections::HashMap<(i64, i64), Vec<usize>> =
-            std::collections::HashMap::new();
+        let mut grid = CellMap::default();
         for (k, (_, d, vel)) in movers.iter().enumerate() {
             let dt = (t_mid - d.0) / 1000.0;
             let (px, py) = (d.1 + vel.0 * dt, d.2 + vel.1 * dt);
@@ -250,8 +277,7 @@ impl Linker {
         }
         // Detections bucketed on a coarse grid for the candidate search.
         let cell = 16.0;
-        let mut buckets: std::collections::HashMap<(i64, i64), Vec<usize>> =
-            std::collections::HashMap::new();
+        let mut buckets = CellMap::default();
         for (i, d) in detections.iter().enumerate() {
             let key = ((d.x / cell).floor() as i64, (d.y / cell).floor() as i64);
             buckets.entry(key).or_default().push(i);

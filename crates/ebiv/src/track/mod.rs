@@ -18,6 +18,7 @@ pub mod bin;
 pub mod detect;
 pub mod fit;
 pub mod link;
+mod matrix;
 pub mod params;
 pub mod run;
 pub mod score;

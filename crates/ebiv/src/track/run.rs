@@ -32,6 +32,23 @@ pub struct TrackRun {
     pub span_us: (i64, i64),
 }
 
+/// The attributes of a track file: the source, the method, the sensor size and every
+/// setting.
+pub fn track_attributes(
+    source: &str,
+    params: &TrackParams,
+    geometry: Geometry,
+) -> Vec<(String, String)> {
+    let mut attributes = vec![
+        ("source".to_string(), source.to_string()),
+        ("method".to_string(), "particle tracking".to_string()),
+        ("sensor_width".to_string(), geometry.width.to_string()),
+        ("sensor_height".to_string(), geometry.height.to_string()),
+    ];
+    attributes.extend(params.describe());
+    attributes
+}
+
 /// The sensor size of `source`: stated by it, else from the largest coordinates (one pass).
 pub fn source_geometry(source: &EventSource) -> Result<Geometry> {
     let mut reader = source.open()?;

@@ -60,6 +60,16 @@ impl ScoreOptions {
         }
     }
 
+    /// The options when only the true paths are known: the image as far as the paths reach,
+    /// the simulator's default light sheet, no walls.
+    pub fn from_truth(truth: &[TrackPoint]) -> Self {
+        let (w, h) = truth.iter().fold((1.0f64, 1.0f64), |a, p| {
+            (a.0.max(p.x + 1.0), a.1.max(p.y + 1.0))
+        });
+        let sheet = crate::sim::particles::SeedingParams::default().sheet_thickness;
+        ScoreOptions::new(w.ceil() as u32, h.ceil() as u32, sheet)
+    }
+
     /// The options for a simulated scenario: its image, light sheet and walls.
     pub fn for_scenario(s: &crate::sim::scenario::Scenario) -> Self {
         let mut o = ScoreOptions::new(s.sensor.width, s.sensor.height, s.particles.sheet_thickness);

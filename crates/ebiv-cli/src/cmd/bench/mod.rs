@@ -3,6 +3,7 @@
 mod envelope;
 mod piv;
 mod process;
+mod track;
 
 use crate::input::InputArgs;
 use clap::{Args, Subcommand};
@@ -32,6 +33,9 @@ pub enum BenchWhat {
     /// Multi-pass PIV of a synthetic 1024x1024 image pair, windows 64/32/16 px at 50 %
     /// overlap (the case timed for OpenPIV in the docs).
     Piv(piv::PivBenchArgs),
+    /// Particle-tracking throughput at the EBIV paper's data rate (simulated 1280x720 at
+    /// about 20 M events/s, default tracking settings) against the camera's rate.
+    Track(track::TrackBenchArgs),
     /// Operating envelope of both event estimators: simulated uniform flows over a range of
     /// speeds and seeding densities, processed with each window size, slab T and pass
     /// schedule; prints per cell the RMS error, the valid share and the share of valid vectors
@@ -78,6 +82,7 @@ pub fn run(args: &BenchArgs) -> Result<(), ebiv::Error> {
         BenchWhat::Simulate(a) => simulate(a),
         BenchWhat::Process(a) => process::run(a),
         BenchWhat::Piv(a) => piv::run(a),
+        BenchWhat::Track(a) => track::run(a),
         BenchWhat::Envelope(a) => envelope::run(a),
     }
 }
