@@ -85,7 +85,11 @@ impl Track {
 const OUTLIER_PASS_US: f64 = 2000.0;
 
 /// Fewest events in a fit window.
-const MIN_FIT_EVENTS: usize = 30;
+const MIN_FIT_EVENTS: f64 = 30.0;
+
+/// Events a fit window is widened to hold, where the track has them: enough for a cubic's
+/// velocity and acceleration (a sparse track's window grows; a bright track's does not).
+const TARGET_FIT_EVENTS: f64 = 100.0;
 
 /// Fewest events on either side of a sample: a sample is never an extrapolation.
 const MIN_SIDE_EVENTS: f64 = 4.0;
@@ -316,38 +320,38 @@ impl<'a> PathFitter<'a> {
     }
 
     /// The weighted local fit at `t` (µs, latency removed): over the fit window, widened
-    /// up to [`MAX_WIDENING`] times until it holds [`MIN_FIT_EVENTS`] events with at least
-    /// a fifth of them on either side of `t`; `None` when no width does (a sample without
-    /// events around it on both sides would be an extrapolation).
+    /// (up to [`MAX_WIDENING`] times) while it holds fewer than [`TARGET_FIT_EVENTS`]
+    /// events; `None` when the widest window still holds fewer than [`MIN_FIT_EVENTS`], or
+    /// fewer than [`MIN_SIDE_EVENTS`] on either side of `t` (a sample is never an
+    /// extrapolation). Where less than a fifth of the events lie on one side (near a track's
+    /// ends) the degree is at most [`END_DEGREE`]: a lower degree extrapolates less from the
+    /// side with the events.
     fn local(&self, t: f64) -> Option<LocalFit> {
         let base = self.params.fit_window_us as f64 / 2.0;
-        let mut half = base;
         let points = &self.points;
-        let (lo, hi, degree) = loop {
+        let count = |a: usize, b: usize| points[a..b].iter().map(|p| p.n).sum::<f64>();
+        let mut half = base;
+        let (lo, mid, hi) = loop {
             let lo = points.partition_point(|p| p.t < t - half);
             let mid = points.partition_point(|p| p.t < t);
             let hi = points.partition_point(|p| p.t <= t + half);
-            let count = |a: usize, b: usize| points[a..b].iter().map(|p| p.n).sum::<f64>();
-            let (left, right) = (count(lo, mid), count(mid, hi));
-            let total = left + right;
-            if total >= MIN_FIT_EVENTS as f64 && left >= MIN_SIDE_EVENTS && right >= MIN_SIDE_EVENTS
-            {
-                // Near a track's end the window is lopsided: a lower degree extrapolates
-                // less from the side with the events.
-                let lopsided = 5.0 * left.min(right) < total;
-                let degree = if lopsided {
-                    self.params.degree.min(END_DEGREE)
-                } else {
-                    self.params.degree
-                };
-                break (lo, hi, degree as usize);
-            }
-            if half >= base * MAX_WIDENING {
-                return None;
+            if count(lo, hi) >= TARGET_FIT_EVENTS || half >= base * MAX_WIDENING {
+                break (lo, mid, hi);
             }
             half = (half * 1.5).min(base * MAX_WIDENING);
         };
-        self.fit_window(t, half, &points[lo..hi], degree)
+        let (left, right) = (count(lo, mid), count(mid, hi));
+        let total = left + right;
+        if total < MIN_FIT_EVENTS || left < MIN_SIDE_EVENTS || right < MIN_SIDE_EVENTS {
+            return None;
+        }
+        let lopsided = 5.0 * left.min(right) < total;
+        let degree = if lopsided {
+            self.params.degree.min(END_DEGREE)
+        } else {
+            self.params.degree
+        };
+        self.fit_window(t, half, &points[lo..hi], degree as usize)
     }
 
     /// The weighted fit at `t` over `points`, within `half` µs of it.

@@ -62,6 +62,15 @@ impl LiveTrack {
         }
     }
 
+    /// The recent velocity, or the first detection's, or none (zero).
+    fn velocity_or_zero(&self, params: &TrackParams) -> (f64, f64) {
+        if self.detections.len() >= 2 {
+            self.recent_velocity(params)
+        } else {
+            self.first_velocity.unwrap_or((0.0, 0.0))
+        }
+    }
+
     /// Least-squares velocity (px/ms) over the detections of the last 2 ms (at least two).
     fn recent_velocity(&self, params: &TrackParams) -> (f64, f64) {
         let last = self.last_time();
@@ -120,20 +129,111 @@ impl std::hash::Hasher for CellHasher {
     }
 }
 
+/// Items (by index) on a grid of square cells over the sensor, for the search of what lies
+/// near a point; emptied in constant time by a stamp, so that a slab costs time in its
+/// items only.
+struct CellGrid {
+    cell: f64,
+    cols: i64,
+    rows: i64,
+    width: f64,
+    height: f64,
+    stamp: Vec<u32>,
+    head: Vec<u32>,
+    next: Vec<u32>,
+    now: u32,
+}
+
+const NONE: u32 = u32::MAX;
+
+impl CellGrid {
+    fn new(width: u32, height: u32) -> Self {
+        CellGrid {
+            cell: 0.0,
+            cols: 0,
+            rows: 0,
+            width: width as f64,
+            height: height as f64,
+            stamp: Vec::new(),
+            head: Vec::new(),
+            next: Vec::new(),
+            now: 0,
+        }
+    }
+
+    /// Empty the grid for `items` items on cells of `cell` px.
+    fn reset(&mut self, cell: f64, items: usize) {
+        if cell != self.cell {
+            self.cell = cell;
+            self.cols = (self.width / cell).ceil() as i64 + 1;
+            self.rows = (self.height / cell).ceil() as i64 + 1;
+            let n = (self.cols * self.rows) as usize;
+            self.stamp = vec![0; n];
+            self.head = vec![NONE; n];
+            self.now = 0;
+        }
+        self.now = self.now.wrapping_add(1);
+        if self.now == 0 {
+            self.stamp.fill(0);
+            self.now = 1;
+        }
+        self.next.clear();
+        self.next.resize(items, NONE);
+    }
+
+    /// The cell of a point, clamped to the grid (points off the sensor join its edge cells).
+    fn cell_of(&self, x: f64, y: f64) -> (i64, i64) {
+        let c = ((x / self.cell).floor() as i64).clamp(0, self.cols - 1);
+        let r = ((y / self.cell).floor() as i64).clamp(0, self.rows - 1);
+        (c, r)
+    }
+
+    fn insert(&mut self, item: usize, x: f64, y: f64) {
+        let (c, r) = self.cell_of(x, y);
+        let i = (r * self.cols + c) as usize;
+        if self.stamp[i] != self.now {
+            self.stamp[i] = self.now;
+            self.head[i] = NONE;
+        }
+        self.next[item] = self.head[i];
+        self.head[i] = item as u32;
+    }
+
+    /// Call `f` with every item in the cell of (x, y) and its eight neighbours.
+    fn for_near(&self, x: f64, y: f64, mut f: impl FnMut(usize)) {
+        let (c, r) = self.cell_of(x, y);
+        for row in (r - 1).max(0)..=(r + 1).min(self.rows - 1) {
+            for col in (c - 1).max(0)..=(c + 1).min(self.cols - 1) {
+                let i = (row * self.cols + col) as usize;
+                if self.stamp[i] != self.now {
+                    continue;
+                }
+                let mut k = self.head[i];
+                while k != NONE {
+                    f(k as usize);
+                    k = self.next[k as usize];
+                }
+            }
+        }
+    }
+}
+
 /// Links detections slab by slab and hands over the tracks that have ended.
 pub struct Linker {
     params: TrackParams,
     live: Vec<LiveTrack>,
     next_id: u64,
+    grid: CellGrid,
 }
 
 impl Linker {
-    /// A linker with no tracks.
-    pub fn new(params: TrackParams) -> Self {
+    /// A linker with no tracks, for a sensor of `geometry`.
+    pub fn new(params: TrackParams, geometry: crate::event::Geometry) -> Self {
         Linker {
             params,
             live: Vec::new(),
             next_id: 0,
+            grid: CellGrid::new(geometry.width, geometry.height),
         }
     }
 
@@ -146,7 +246,7 @@ impl Linker {
     /// within `gate` of a track's predicted position at its time goes to the nearest such
     /// track. Returns the detections of the tracks that claimed at least `min_events` (by
     /// track index) and the events left for clustering, in time order.
-    pub fn claim(&self, events: &[TrackEvent]) -> (Vec<(usize, Detection)>, Vec<TrackEvent>) {
+    pub fn claim(&mut self, events: &[TrackEvent]) -> (Vec<(usize, Detection)>, Vec<TrackEvent>) {
         let Some(first) = events.first() else {
             return (Vec::new(), Vec::new());
         };
@@ -170,33 +270,25 @@ impl Linker {
         if movers.is_empty() {
             return (Vec::new(), events.to_vec());
         }
-        let mut grid = CellMap::default();
+        let grid = &mut self.grid;
+        grid.reset(cell, movers.len());
         for (k, (_, d, vel)) in movers.iter().enumerate() {
             let dt = (t_mid - d.0) / 1000.0;
-            let (px, py) = (d.1 + vel.0 * dt, d.2 + vel.1 * dt);
-            grid.entry(((px / cell).floor() as i64, (py / cell).floor() as i64))
-                .or_default()
-                .push(k);
+            grid.insert(k, d.1 + vel.0 * dt, d.2 + vel.1 * dt);
         }
         let mut claimed: Vec<Vec<TrackEvent>> = vec![Vec::new(); movers.len()];
         let mut owner: Vec<Option<usize>> = Vec::with_capacity(events.len());
         for e in events {
             let (ex, ey) = (e.x as f64, e.y as f64);
-            let (cx, cy) = ((ex / cell).floor() as i64, (ey / cell).floor() as i64);
             let mut best: Option<(f64, usize)> = None;
-            for bx in cx - 1..=cx + 1 {
-                for by in cy - 1..=cy + 1 {
-                    for &k in grid.get(&(bx, by)).into_iter().flatten() {
-                        let (_, d, vel) = movers[k];
-                        let dt = (e.t as f64 - d.0) / 1000.0;
-                        let dist2 =
-                            (ex - d.1 - vel.0 * dt).powi(2) + (ey - d.2 - vel.1 * dt).powi(2);
-                        if dist2 <= gate * gate && best.is_none_or(|b| dist2 < b.0) {
-                            best = Some((dist2, k));
-                        }
-                    }
+            grid.for_near(ex, ey, |k| {
+                let (_, d, vel) = movers[k];
+                let dt = (e.t as f64 - d.0) / 1000.0;
+                let dist2 = (ex - d.1 - vel.0 * dt).powi(2) + (ey - d.2 - vel.1 * dt).powi(2);
+                if dist2 <= gate * gate && best.is_none_or(|b| dist2 < b.0) {
+                    best = Some((dist2, k));
                 }
-            }
+            });
             owner.push(best.map(|b| b.1));
         }
         for (e, o) in events.iter().zip(&owner) {
@@ -246,6 +338,7 @@ impl Linker {
             live.detections.push((d.t, d.x, d.y));
             live.events.extend_from_slice(&d.events);
         }
+        self.merge_duplicates(slab_end - self.params.slab_us as f64);
         // Ended tracks leave before the new ones start.
         let max_gap = self.params.max_gap_us as f64;
         let (ended, live): (Vec<_>, Vec<_>) = std::mem::take(&mut self.live)
@@ -262,6 +355,77 @@ impl Linker {
             self.next_id += 1;
         }
         ended
+    }
+
+    /// Merge tracks that follow one particle: two tracks whose detections of this slab (after
+    /// `slab_start`) lie within half the gate of each other, moving alike (within 1 px/ms),
+    /// become the older one. A particle whose events were split between a track and a
+    /// fragment would otherwise feed two tracks that compete for its events, and the loser
+    /// drifts to a neighbour.
+    fn merge_duplicates(&mut self, slab_start: f64) {
+        let close = self.params.gate_px / 2.0;
+        let current: Vec<usize> = (0..self.live.len())
+            .filter(|&i| self.live[i].last_time() >= slab_start)
+            .collect();
+        let mut grid = CellMap::default();
+        let cell = 8.0;
+        for &i in &current {
+            let &(_, x, y) = self.live[i].detections.last().expect("a detection");
+            grid.entry(((x / cell).floor() as i64, (y / cell).floor() as i64))
+                .or_default()
+                .push(i);
+        }
+        let mut into: Vec<Option<usize>> = vec![None; self.live.len()];
+        for &i in &current {
+            if into[i].is_some() {
+                continue;
+            }
+            let &(_, x, y) = self.live[i].detections.last().expect("a detection");
+            let (cx, cy) = ((x / cell).floor() as i64, (y / cell).floor() as i64);
+            for bx in cx - 1..=cx + 1 {
+                for by in cy - 1..=cy + 1 {
+                    for &j in grid.get(&(bx, by)).into_iter().flatten() {
+                        if j <= i || into[j].is_some() {
+                            continue;
+                        }
+                        let &(_, xj, yj) = self.live[j].detections.last().expect("a detection");
+                        if (xj - x).hypot(yj - y) > close {
+                            continue;
+                        }
+                        let (vi, vj) = (
+                            self.live[i].velocity_or_zero(&self.params),
+                            self.live[j].velocity_or_zero(&self.params),
+                        );
+                        if (vi.0 - vj.0).hypot(vi.1 - vj.1) <= 1.0 {
+                            // The younger joins the older (lower id, created first).
+                            into[j] = Some(i);
+                        }
+                    }
+                }
+            }
+        }
+        if into.iter().all(Option::is_none) {
+            return;
+        }
+        let mut moved: Vec<(usize, LiveTrack)> = Vec::new();
+        let mut kept = Vec::with_capacity(self.live.len());
+        let mut new_index = vec![0usize; self.live.len()];
+        for (i, track) in std::mem::take(&mut self.live).into_iter().enumerate() {
+            match into[i] {
+                Some(target) => moved.push((target, track)),
+                None => {
+                    new_index[i] = kept.len();
+                    kept.push(track);
+                }
+            }
+        }
+        for (target, track) in moved {
+            let t = &mut kept[new_index[target]];
+            t.events.extend(track.events);
+            t.detections.extend(track.detections);
+            t.detections.sort_by(|a, b| a.0.total_cmp(&b.0));
+        }
+        self.live = kept;
     }
 
     /// Every remaining track, ended by the end of the events.

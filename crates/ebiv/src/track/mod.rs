@@ -75,7 +75,7 @@ impl Tracker {
         params.validate()?;
         Ok(Tracker {
             detector: Detector::new(geometry.width, geometry.height),
-            linker: Linker::new(params.clone()),
+            linker: Linker::new(params.clone(), geometry),
             params,
             slab: Vec::new(),
             slab_index: None,
