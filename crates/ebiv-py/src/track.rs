@@ -178,7 +178,7 @@ pub fn track<'py>(
         if let Some(total) = total {
             watch.progress(total, total);
         }
-        let attributes = track_attributes(&name, &params, run.geometry);
+        let attributes = track_attributes(&name, &params, &run);
         if let Some(writer) = writer {
             writer.finish(&attributes)?;
         }

@@ -188,9 +188,15 @@ pub fn run(args: &TrackArgs) -> Result<(), ebiv::Error> {
     )?;
     bar.finish_and_clear();
     let seconds = started.elapsed().as_secs_f64();
-    let attributes = track_attributes(&args.file.display().to_string(), &params, run.geometry);
+    let attributes = track_attributes(&args.file.display().to_string(), &params, &run);
     writer.finish(&attributes)?;
     let s = run.summary;
+    if params.slab_us == 0 {
+        println!(
+            "detection slab: {} (chosen from the first events)",
+            ebiv::units::format_us(s.slab_us)
+        );
+    }
     println!(
         "{} tracks ({} samples) from {} events in {:.2} s ({:.1} M events/s): {} detections, {} short tracks dropped, {} events in tracks ({:.0} %), {} outliers left out; wrote {}",
         s.tracks,

@@ -16,9 +16,8 @@
 //! particle passing close).
 //!
 //! Uncertainty: the coefficients' covariance from the weighted residuals (the sandwich form
-//! for weighted least squares, `M⁻¹ (Σ w² r rᵀ σ²) M⁻¹`), scaled by the events per pixel
-//! visit: a pixel fires a burst of events as an image passes, and the events of one burst
-//! share its position, so the independent samples are the bursts, not the events.
+//! for weighted least squares, `M⁻¹ (Σ w² r rᵀ σ²) M⁻¹`). It covers the scatter of the
+//! events about the path, not the sensor's lag (see the `latency` setting).
 
 use super::detect::TrackEvent;
 use super::matrix::{cholesky_inverse, dot, mat_vec, sandwich, MAX_TERMS};
@@ -101,18 +100,6 @@ const END_DEGREE: u32 = 2;
 /// Most a fit window is widened to find [`MIN_FIT_EVENTS`] on both sides of a sample.
 const MAX_WIDENING: f64 = 3.0;
 
-/// Normal equations of one window.
-struct Normal {
-    terms: usize,
-    m: [[f64; MAX_TERMS]; MAX_TERMS],
-    m2: [[f64; MAX_TERMS]; MAX_TERMS],
-    bx: [f64; MAX_TERMS],
-    by: [f64; MAX_TERMS],
-    sum_w: f64,
-    sum_w2: f64,
-    count: u32,
-}
-
 fn row(t: f64, s: f64, degree: usize, polarity: bool) -> ([f64; MAX_TERMS], usize) {
     let mut r = [0.0; MAX_TERMS];
     let mut p = 1.0;
@@ -174,8 +161,6 @@ pub struct PathFitter<'a> {
     keep: Vec<bool>,
     /// The kept events grouped in bins, time order.
     points: Vec<Point>,
-    /// Events per pixel visit in the whole track (≥ 1).
-    burst: f64,
 }
 
 impl<'a> PathFitter<'a> {
@@ -199,7 +184,6 @@ impl<'a> PathFitter<'a> {
             signs,
             keep: vec![true; events.len()],
             points: Vec::new(),
-            burst: events_per_visit(events),
         };
         fitter.group();
         fitter
@@ -314,7 +298,7 @@ impl<'a> PathFitter<'a> {
         }
         let samples = times
             .iter()
-            .filter_map(|&t| self.local(t).map(|f| f.sample(t, self.burst)))
+            .filter_map(|&t| self.local(t).map(|f| f.sample(t)))
             .collect();
         (samples, outliers)
     }
@@ -355,86 +339,101 @@ impl<'a> PathFitter<'a> {
     }
 
     /// The weighted fit at `t` over `points`, within `half` µs of it.
+    ///
+    /// One pass over the points gathers the weighted moments of time (Σ w tᵏ up to t⁶, and
+    /// with the polarity sign), of the positions, and of their squares: the normal equations,
+    /// the matrix of the sandwich covariance and the residual sum of squares
+    /// (Σ w x² − 2 aᵀb + aᵀMa) all follow from them. Positions are taken from the first
+    /// point's, so that the sums of squares do not lose the residual's digits.
     fn fit_window(&self, t: f64, half: f64, points: &[Point], degree: usize) -> Option<LocalFit> {
         let has_on = points.iter().any(|p| p.s > 0.0);
         let has_off = points.iter().any(|p| p.s < 0.0);
         let polarity = has_on && has_off;
-        let mut normal = Normal {
-            terms: degree + 1 + polarity as usize,
-            m: [[0.0; MAX_TERMS]; MAX_TERMS],
-            m2: [[0.0; MAX_TERMS]; MAX_TERMS],
-            bx: [0.0; MAX_TERMS],
-            by: [0.0; MAX_TERMS],
-            sum_w: 0.0,
-            sum_w2: 0.0,
-            count: 0,
-        };
+        let nt = degree + 1 + polarity as usize;
+        let (x0, y0) = points.first().map_or((0.0, 0.0), |p| (p.x, p.y));
         let scale = half / 1000.0;
-        let tricube = |dt: f64| {
+        // Σ w n tᵏ and Σ w² n tᵏ (k ≤ 6); Σ w n s tᵏ, Σ w² n s tᵏ (k ≤ 3); Σ w n x tᵏ,
+        // Σ w n y tᵏ (k ≤ 3) and with s; Σ w (n x² + scatter / 2), likewise y.
+        let (mut tw, mut tw2) = ([0.0f64; 7], [0.0f64; 7]);
+        let (mut sw, mut sw2) = ([0.0f64; 4], [0.0f64; 4]);
+        let (mut xw, mut yw) = ([0.0f64; 4], [0.0f64; 4]);
+        let (mut xsw, mut ysw, mut xx, mut yy) = (0.0, 0.0, 0.0, 0.0);
+        let mut count = 0.0;
+        for p in points {
+            let dt = (p.t - t) / 1000.0;
             let u = (dt / scale).abs();
             if u >= 1.0 {
-                0.0
-            } else {
-                let a = 1.0 - u * u * u;
-                a * a * a
-            }
-        };
-        let nt = normal.terms;
-        for p in points {
-            let dt = (p.t - t) / 1000.0;
-            let w = tricube(dt);
-            if w == 0.0 {
                 continue;
             }
-            // n events of weight w: Σ w = n w and the variance of the sum n w² σ².
+            let c = 1.0 - u * u * u;
+            let w = c * c * c;
             let (wn, w2n) = (w * p.n, w * w * p.n);
-            let (r, _) = row(dt, p.s, degree, polarity);
-            for a in 0..nt {
-                for b in 0..=a {
-                    normal.m[a][b] += wn * r[a] * r[b];
-                    normal.m2[a][b] += w2n * r[a] * r[b];
+            let (x, y) = (p.x - x0, p.y - y0);
+            let mut power = 1.0;
+            for k in 0..7 {
+                tw[k] += wn * power;
+                tw2[k] += w2n * power;
+                if k < 4 {
+                    sw[k] += wn * p.s * power;
+                    sw2[k] += w2n * p.s * power;
+                    xw[k] += wn * x * power;
+                    yw[k] += wn * y * power;
                 }
-                normal.bx[a] += wn * r[a] * p.x;
-                normal.by[a] += wn * r[a] * p.y;
+                power *= dt;
             }
-            normal.sum_w += wn;
-            normal.sum_w2 += w2n;
-            normal.count += p.n as u32;
+            xsw += wn * x * p.s;
+            ysw += wn * y * p.s;
+            xx += w * (p.n * x * x + p.scatter / 2.0);
+            yy += w * (p.n * y * y + p.scatter / 2.0);
+            count += p.n;
         }
-        if (normal.count as usize) < 2 * nt + 2 || normal.sum_w <= 0.0 {
+        let (sum_w, sum_w2) = (tw[0], tw2[0]);
+        if count < (2 * nt + 2) as f64 || sum_w <= 0.0 {
             return None;
         }
-        for a in 0..nt {
-            for b in 0..a {
-                normal.m[b][a] = normal.m[a][b];
-                normal.m2[b][a] = normal.m2[a][b];
+        // The normal equations from the moments.
+        let mut m = [[0.0; MAX_TERMS]; MAX_TERMS];
+        let mut m2 = [[0.0; MAX_TERMS]; MAX_TERMS];
+        let (mut bx, mut by) = ([0.0; MAX_TERMS], [0.0; MAX_TERMS]);
+        for a in 0..=degree {
+            for b in 0..=degree {
+                m[a][b] = tw[a + b];
+                m2[a][b] = tw2[a + b];
             }
+            bx[a] = xw[a];
+            by[a] = yw[a];
         }
-        let inv = cholesky_inverse(&normal.m, nt)?;
-        let ax = mat_vec(&inv, &normal.bx, nt);
-        let ay = mat_vec(&inv, &normal.by, nt);
-        // Weighted residuals: each point's distance from the fit, and its events' scatter
-        // about their mean (shared between the axes).
-        let (mut rx, mut ry) = (0.0, 0.0);
-        for p in points {
-            let dt = (p.t - t) / 1000.0;
-            let w = tricube(dt);
-            if w == 0.0 {
-                continue;
+        if polarity {
+            let q = degree + 1;
+            for a in 0..=degree {
+                m[a][q] = sw[a];
+                m[q][a] = sw[a];
+                m2[a][q] = sw2[a];
+                m2[q][a] = sw2[a];
             }
-            let (r, _) = row(dt, p.s, degree, polarity);
-            let (px, py) = (dot(&r, &ax, nt), dot(&r, &ay, nt));
-            rx += w * (p.n * (p.x - px).powi(2) + p.scatter / 2.0);
-            ry += w * (p.n * (p.y - py).powi(2) + p.scatter / 2.0);
+            m[q][q] = sum_w;
+            m2[q][q] = sum_w2;
+            bx[q] = xsw;
+            by[q] = ysw;
         }
+        let inv = cholesky_inverse(&m, nt)?;
+        let mut ax = mat_vec(&inv, &bx, nt);
+        let mut ay = mat_vec(&inv, &by, nt);
+        // Residual sums of squares: Σ w x² − aᵀ b (with a = M⁻¹ b, aᵀ M a = aᵀ b).
+        let rx = (xx - dot(&ax, &bx, nt)).max(0.0);
+        let ry = (yy - dot(&ay, &by, nt)).max(0.0);
+        ax[0] += x0;
+        ay[0] += y0;
         // Effective degrees of freedom of weighted data (Kish): (Σw)² / Σw².
-        let n_eff = normal.sum_w * normal.sum_w / normal.sum_w2;
+        let n_eff = sum_w * sum_w / sum_w2;
         let dof = (n_eff - nt as f64).max(1.0);
         let correction = n_eff / dof;
-        let var_x = rx / normal.sum_w * correction;
-        let var_y = ry / normal.sum_w * correction;
+        let var_x = rx / sum_w * correction;
+        let var_y = ry / sum_w * correction;
         // Sandwich covariance per unit variance: M⁻¹ M2 M⁻¹.
-        let cov = sandwich(&inv, &normal.m2, nt);
+        let cov = sandwich(&inv, &m2, nt);
+        let normal_count = count as u32;
+        let residual = ((rx + ry) / sum_w).sqrt();
         Some(LocalFit {
             polarity,
             degree,
@@ -443,8 +442,8 @@ impl<'a> PathFitter<'a> {
             cov,
             var_x,
             var_y,
-            events: normal.count,
-            residual: ((rx + ry) / normal.sum_w).sqrt(),
+            events: normal_count,
+            residual,
         })
     }
 }
@@ -457,8 +456,8 @@ impl LocalFit {
     }
 
     /// The sample at `t`, the particle's time (µs; the event times less the latency).
-    fn sample(&self, t: f64, burst: f64) -> TrackSample {
-        let sd = |k: usize, var: f64| (self.cov[k][k] * var * burst).sqrt();
+    fn sample(&self, t: f64) -> TrackSample {
+        let sd = |k: usize, var: f64| (self.cov[k][k] * var).sqrt();
         let acc = self.degree >= 2;
         TrackSample {
             t_us: t.round() as i64,
@@ -490,20 +489,73 @@ impl LocalFit {
     }
 }
 
-/// Mean events per pixel visit: runs of events of one pixel and polarity less than 1 ms
-/// apart count as one visit.
-fn events_per_visit(events: &[TrackEvent]) -> f64 {
-    if events.is_empty() {
-        return 1.0;
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Events of a particle on x = 100 + 2 t + 0.1 t², y = 50 + 0.5 t (t in ms), one ON
+    /// event 1 px ahead and one OFF event 1 px behind every 20 µs, with a deterministic
+    /// scatter of up to ±0.5 px across.
+    fn parabola_events(duration_ms: f64) -> Vec<TrackEvent> {
+        let mut events = Vec::new();
+        let mut k = 0u32;
+        let mut t_us = 0i64;
+        while (t_us as f64) < duration_ms * 1000.0 {
+            let t = t_us as f64 / 1000.0;
+            let (x, y) = (100.0 + 2.0 * t + 0.1 * t * t, 50.0 + 0.5 * t);
+            let jitter = ((k * 7919) % 11) as f64 / 10.0 - 0.5;
+            for (p, lead) in [(1u8, 1.0), (0u8, -1.0)] {
+                events.push(TrackEvent {
+                    t: t_us,
+                    x: (x + lead).round() as u16,
+                    y: (y + jitter).round() as u16,
+                    p,
+                });
+            }
+            k += 1;
+            t_us += 20;
+        }
+        events
     }
-    let mut keys: Vec<(u16, u16, u8, i64)> = events.iter().map(|e| (e.x, e.y, e.p, e.t)).collect();
-    keys.sort_unstable();
-    let mut visits = 1usize;
-    for pair in keys.windows(2) {
-        let (a, b) = (pair[0], pair[1]);
-        if (a.0, a.1, a.2) != (b.0, b.1, b.2) || b.3 - a.3 > 1000 {
-            visits += 1;
+
+    #[test]
+    fn a_parabola_gives_its_velocity_and_acceleration() {
+        let params = TrackParams::default();
+        let events = parabola_events(20.0);
+        let (samples, _) = PathFitter::new(&events, &params).fit();
+        assert!(samples.len() >= 35, "{} samples", samples.len());
+        let mid = samples
+            .iter()
+            .find(|s| s.t_us == 10_000)
+            .expect("a sample at 10 ms");
+        let t = 10.0;
+        assert!((mid.u - (2.0 + 0.2 * t)).abs() < 0.02, "{mid:?}");
+        assert!((mid.v - 0.5).abs() < 0.02, "{mid:?}");
+        assert!(
+            (mid.ax - 0.2).abs() < 0.02 && mid.ay.abs() < 0.02,
+            "{mid:?}"
+        );
+        // Pixels round the positions: within half a pixel of the path's midpoint.
+        assert!(
+            (mid.x - (100.0 + 2.0 * t + 0.1 * t * t)).abs() < 0.5,
+            "{mid:?}"
+        );
+        assert!(mid.unc.iter().all(|u| u.is_finite() && *u > 0.0), "{mid:?}");
+        // Every sample lies within the events' span, and none is far off the path.
+        for s in &samples {
+            let t = s.t_us as f64 / 1000.0;
+            assert!((0.0..=20.0).contains(&t));
+            assert!((s.u - (2.0 + 0.2 * t)).abs() < 0.15, "{s:?}");
         }
     }
-    (events.len() as f64 / visits as f64).max(1.0)
+
+    #[test]
+    fn too_few_events_give_no_samples() {
+        let params = TrackParams::default();
+        let events = parabola_events(0.2);
+        let (samples, _) = PathFitter::new(&events, &params).fit();
+        assert!(samples.is_empty(), "{samples:?}");
+        let (samples, outliers) = PathFitter::new(&[], &params).fit();
+        assert!(samples.is_empty() && outliers == 0);
+    }
 }

@@ -237,6 +237,11 @@ impl Linker {
         }
     }
 
+    /// Set the detection slab (once an automatic one is chosen).
+    pub fn set_slab(&mut self, slab_us: i64) {
+        self.params.slab_us = slab_us;
+    }
+
     /// Number of tracks alive.
     pub fn live_count(&self) -> usize {
         self.live.len()

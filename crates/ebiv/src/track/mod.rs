@@ -22,6 +22,7 @@ mod matrix;
 pub mod params;
 pub mod run;
 pub mod score;
+pub mod slab;
 
 pub use detect::TrackEvent;
 pub use fit::{Track, TrackSample};
@@ -54,6 +55,8 @@ pub struct TrackSummary {
     pub samples: u64,
     /// Most tracks alive at once.
     pub peak_live: u64,
+    /// The detection slab used, µs (chosen from the first events for `slab = auto`).
+    pub slab_us: i64,
 }
 
 /// Tracks particles through a stream of events: [`Tracker::push`] batches in time order,
@@ -66,6 +69,9 @@ pub struct Tracker {
     slab: Vec<TrackEvent>,
     /// Index of the slab being filled (time / slab length).
     slab_index: Option<i64>,
+    /// With `slab = auto`, the first events, held until the slab is chosen.
+    probe: Vec<TrackEvent>,
+    geometry: Geometry,
     summary: TrackSummary,
 }
 
@@ -76,14 +82,19 @@ impl Tracker {
         Ok(Tracker {
             detector: Detector::new(geometry.width, geometry.height),
             linker: Linker::new(params.clone(), geometry),
+            summary: TrackSummary {
+                slab_us: params.slab_us,
+                ..TrackSummary::default()
+            },
             params,
             slab: Vec::new(),
             slab_index: None,
-            summary: TrackSummary::default(),
+            probe: Vec::new(),
+            geometry,
         })
     }
 
-    /// The settings.
+    /// The settings (`slab_us` 0 until an automatic slab is chosen).
     pub fn params(&self) -> &TrackParams {
         &self.params
     }
@@ -96,36 +107,66 @@ impl Tracker {
     /// Take a batch of events (time order; an event earlier than the slab being filled
     /// joins that slab). Tracks that end are fitted and passed to `sink`.
     pub fn push(&mut self, events: &EventBuffer, sink: &mut dyn FnMut(Track)) {
-        let slab_us = self.params.slab_us;
-        let polarity = self.params.polarity;
         self.summary.events += events.len() as u64;
-        for i in 0..events.len() {
-            let p = events.p[i];
-            if !polarity.accepts(p) {
-                continue;
-            }
-            let t = events.t[i];
-            let index = t.div_euclid(slab_us);
-            match self.slab_index {
-                None => self.slab_index = Some(index),
-                Some(current) if index > current => {
-                    self.close_slab(sink);
-                    self.slab_index = Some(index);
-                }
-                _ => {}
-            }
-            self.slab.push(TrackEvent {
-                t,
+        let polarity = self.params.polarity;
+        let selected = (0..events.len())
+            .filter(|&i| polarity.accepts(events.p[i]))
+            .map(|i| TrackEvent {
+                t: events.t[i],
                 x: events.x[i],
                 y: events.y[i],
-                p,
+                p: events.p[i],
             });
+        if self.params.slab_us == 0 {
+            self.probe.extend(selected);
+            let span = match (self.probe.first(), self.probe.last()) {
+                (Some(a), Some(b)) => b.t.saturating_sub(a.t),
+                _ => 0,
+            };
+            if span >= slab::PROBE_US || self.probe.len() >= slab::PROBE_EVENTS {
+                self.resolve_slab(sink);
+            }
+            return;
         }
+        for e in selected {
+            self.take(e, sink);
+        }
+    }
+
+    /// Choose the automatic slab on the probe, then track the probe's events.
+    fn resolve_slab(&mut self, sink: &mut dyn FnMut(Track)) {
+        let mut probe = std::mem::take(&mut self.probe);
+        // The choice clusters slab by slab: time order, as the stream is tracked.
+        probe.sort_by_key(|e| e.t);
+        let slab_us = slab::choose_slab(&probe, self.geometry, self.params.min_events);
+        self.params.slab_us = slab_us;
+        self.linker.set_slab(slab_us);
+        self.summary.slab_us = slab_us;
+        for e in probe {
+            self.take(e, sink);
+        }
+    }
+
+    /// One event (time order; one earlier than the slab being filled joins that slab).
+    fn take(&mut self, e: TrackEvent, sink: &mut dyn FnMut(Track)) {
+        let index = e.t.div_euclid(self.params.slab_us);
+        match self.slab_index {
+            None => self.slab_index = Some(index),
+            Some(current) if index > current => {
+                self.close_slab(sink);
+                self.slab_index = Some(index);
+            }
+            _ => {}
+        }
+        self.slab.push(e);
     }
 
     /// End the stream: the last slab is processed and every track still alive is fitted and
     /// passed to `sink`.
     pub fn finish(mut self, sink: &mut dyn FnMut(Track)) -> TrackSummary {
+        if self.params.slab_us == 0 {
+            self.resolve_slab(sink);
+        }
         if !self.slab.is_empty() {
             self.close_slab(sink);
         }

@@ -7,8 +7,9 @@ use crate::event::PolaritySelection;
 /// How particles are detected in the events, linked into tracks and fitted.
 #[derive(Debug, Clone, PartialEq)]
 pub struct TrackParams {
-    /// Length of the time slabs in which particles are detected, µs. A particle must fire a
-    /// few events within one slab (`min_events`) and move less than about its image
+    /// Length of the time slabs in which particles are detected, µs; 0 for automatic
+    /// ([`super::slab`]). A particle must fire a few events within one slab (`min_events`)
+    /// and move less than about its image
     /// diameter plus `gate` across it.
     pub slab_us: i64,
     /// Events of one cluster needed for a detection: fewer are taken as noise.
@@ -38,7 +39,7 @@ pub struct TrackParams {
 impl Default for TrackParams {
     fn default() -> Self {
         TrackParams {
-            slab_us: 500,
+            slab_us: 0,
             min_events: 4,
             gate_px: 4.0,
             max_speed: 10.0,
@@ -58,8 +59,8 @@ impl Default for TrackParams {
 pub const TRACK_SETTINGS: &[(&str, &str, &str)] = &[
     (
         "slab",
-        "DUR",
-        "Detection slab length: particles are found as clusters of events within each slab",
+        "DUR|auto",
+        "Detection slab length: particles are found as clusters of events within each slab; auto: the shortest of 500us, 1ms, 2ms that puts 80 % of the first 20 ms of events in detections",
     ),
     (
         "min-events",
@@ -117,7 +118,13 @@ impl TrackParams {
                 .map_err(|_| bad("not a number".into()))
         };
         match key.as_str() {
-            "slab" => self.slab_us = duration()?,
+            "slab" if text.trim().eq_ignore_ascii_case("auto") => self.slab_us = 0,
+            "slab" => {
+                self.slab_us = duration()?;
+                if self.slab_us == 0 {
+                    return Err(bad("must be longer than 0 (or auto)".into()));
+                }
+            }
             "min-events" => self.min_events = number()? as u32,
             "gate" => self.gate_px = number()?,
             "max-speed" => self.max_speed = number()?,
@@ -159,6 +166,7 @@ impl TrackParams {
             }
         };
         Some(match key.replace('_', "-").as_str() {
+            "slab" if self.slab_us == 0 => "auto".into(),
             "slab" => us(self.slab_us),
             "min-events" => self.min_events.to_string(),
             "gate" => self.gate_px.to_string(),
@@ -185,8 +193,11 @@ impl TrackParams {
     /// Check every value, naming the offending setting.
     pub fn validate(&self) -> Result<()> {
         let fail = |name: &str, why: String| Err(Error::parameter(name, why));
-        if !(1..=1_000_000).contains(&self.slab_us) {
-            return fail("slab", format!("{} µs: must be 1 µs to 1 s", self.slab_us));
+        if !(0..=1_000_000).contains(&self.slab_us) {
+            return fail(
+                "slab",
+                format!("{} µs: must be 1 µs to 1 s, or 0 (auto)", self.slab_us),
+            );
         }
         if self.min_events < 1 {
             return fail("min-events", "must be at least 1".into());

@@ -33,19 +33,26 @@ pub struct TrackRun {
 }
 
 /// The attributes of a track file: the source, the method, the sensor size and every
-/// setting.
+/// setting of `params` as `run` used them (the slab it chose, when automatic, with
+/// `slab_choice = auto`).
 pub fn track_attributes(
     source: &str,
     params: &TrackParams,
-    geometry: Geometry,
+    run: &TrackRun,
 ) -> Vec<(String, String)> {
+    let geometry = run.geometry;
     let mut attributes = vec![
         ("source".to_string(), source.to_string()),
         ("method".to_string(), "particle tracking".to_string()),
         ("sensor_width".to_string(), geometry.width.to_string()),
         ("sensor_height".to_string(), geometry.height.to_string()),
     ];
-    attributes.extend(params.describe());
+    let mut used = params.clone();
+    if params.slab_us == 0 && run.summary.slab_us > 0 {
+        used.slab_us = run.summary.slab_us;
+        attributes.push(("slab_choice".to_string(), "auto".to_string()));
+    }
+    attributes.extend(used.describe());
     attributes
 }
 
