@@ -396,10 +396,8 @@ impl<'a> PathFitter<'a> {
         let mut m2 = [[0.0; MAX_TERMS]; MAX_TERMS];
         let (mut bx, mut by) = ([0.0; MAX_TERMS], [0.0; MAX_TERMS]);
         for a in 0..=degree {
-            for b in 0..=degree {
-                m[a][b] = tw[a + b];
-                m2[a][b] = tw2[a + b];
-            }
+            m[a][..=degree].copy_from_slice(&tw[a..=a + degree]);
+            m2[a][..=degree].copy_from_slice(&tw2[a..=a + degree]);
             bx[a] = xw[a];
             by[a] = yw[a];
         }
