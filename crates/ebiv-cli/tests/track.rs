@@ -66,12 +66,34 @@ fn tracks_are_written_binned_drawn_and_scored() {
         assert!(figures.join(png).exists(), "{png}");
     }
     // The same tracks in the other formats.
+    let counts = |out: &str| {
+        out.lines()
+            .find(|l| l.contains(" tracks ("))
+            .map(|l| l.split(" from ").next().unwrap().to_string())
+    };
     for ext in ["npz", "nc"] {
         let path = dir.path().join(format!("tracks.{ext}"));
-        let o = ebiv(&["track", &rec, "-o", path.to_str().unwrap()]);
-        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        let other = stdout(&ebiv(&["track", &rec, "-o", path.to_str().unwrap()]));
+        assert_eq!(counts(&other), counts(&out), "{other}");
         assert!(std::fs::metadata(&path).unwrap().len() > 1000);
     }
+    // The binned field may not replace the tracks.
+    let o = ebiv(&[
+        "track",
+        &rec,
+        "-o",
+        csv.to_str().unwrap(),
+        "--bin",
+        "16",
+        "--field",
+        csv.to_str().unwrap(),
+    ]);
+    assert!(!o.status.success());
+    assert!(String::from_utf8_lossy(&o.stderr).contains("also the tracks' output"));
+    assert!(
+        std::fs::read_to_string(&csv).unwrap() == text,
+        "the tracks are left as they were"
+    );
     let report = dir.path().join("report");
     let out = stdout(&ebiv(&[
         "assess",

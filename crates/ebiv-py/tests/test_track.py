@@ -137,4 +137,4 @@ def test_track_settings_list_the_command_line_s_flags(ebiv_bin, cli):
     for key, entry in settings.items():
         assert f"--{key.replace('_', '-')}" in help_text
         assert f"[default: {entry['default']}]" in help_text
-    assert settings["slab"]["value"] == "DUR"
+    assert settings["slab"]["value"] == "DUR|auto"

@@ -87,7 +87,9 @@ fn batches_of_any_size_give_the_same_tracks() {
         width: 256,
         height: 192,
     };
-    let params = TrackParams::default();
+    // A fixed slab: the automatic one holds the first 20 ms (here all) until it is chosen.
+    let mut params = TrackParams::default();
+    params.set("slab", "500us").unwrap();
     let (whole, _) = track_events(&out.events, g, &params).unwrap();
     assert!(!whole.is_empty());
     for size in [1000, 77_777] {
@@ -198,5 +200,73 @@ fn settings_by_name_round_trip_and_bad_values_name_the_setting() {
             e.contains(key) || e.contains(&key.replace('_', "-")),
             "{key}={bad}: {e}"
         );
+    }
+}
+
+#[test]
+fn the_automatic_slab_gives_the_same_tracks_in_batches() {
+    let (_, out) = vortex(8, 0.003);
+    let g = Geometry {
+        width: 256,
+        height: 192,
+    };
+    let params = TrackParams::default();
+    let (whole, summary) = track_events(&out.events, g, &params).unwrap();
+    assert_eq!(summary.slab_us, 500, "bright particles: the shortest slab");
+    let mut tracker = Tracker::new(g, params).unwrap();
+    let mut tracks = Vec::new();
+    let e = &out.events;
+    for start in (0..e.len()).step_by(5000) {
+        let mut batch = EventBuffer::new();
+        for i in start..(start + 5000).min(e.len()) {
+            batch.push(e.t[i], e.x[i], e.y[i], e.p[i]);
+        }
+        tracker.push(&batch, &mut |t| tracks.push(t));
+    }
+    tracker.finish(&mut |t| tracks.push(t));
+    assert_eq!(tracks.len(), whole.len());
+    assert!(tracks
+        .iter()
+        .zip(&whole)
+        .all(|(a, b)| a.samples == b.samples));
+}
+
+#[test]
+fn hostile_inputs_give_errors_or_nothing_never_a_crash() {
+    // A sensor too large for the tracker's maps.
+    let huge = Geometry {
+        width: 65535,
+        height: 65535,
+    };
+    let e = Tracker::new(huge, TrackParams::default())
+        .err()
+        .unwrap()
+        .to_string();
+    assert!(e.contains("65535x65535"), "{e}");
+    // A hot pixel firing every 100 µs for 2 s: no track, and no track alive at the end.
+    let g = Geometry {
+        width: 32,
+        height: 32,
+    };
+    let mut hot = EventBuffer::new();
+    for k in 0..20_000 {
+        hot.push(k * 100, 7, 9, (k % 2) as u8);
+    }
+    let (tracks, summary) = track_events(&hot, g, &TrackParams::default()).unwrap();
+    assert!(tracks.is_empty(), "{} tracks", tracks.len());
+    assert!(summary.peak_live <= 2, "{summary:?}");
+    // Time stamps near the end of i64 (a clock in ns read as µs): no hang, no crash.
+    let mut late = EventBuffer::new();
+    let t0 = i64::MAX - 50_000_000;
+    for k in 0..4000i64 {
+        let x = 5 + (k / 200) as u16;
+        late.push(t0 + k * 10, x, 10, 1);
+        late.push(t0 + k * 10 + 3, x.saturating_sub(3), 10, 0);
+    }
+    let mut params = TrackParams::default();
+    params.set("sample", "1us").unwrap();
+    let (tracks, _) = track_events(&late, g, &params).unwrap();
+    for t in &tracks {
+        assert!(t.samples.iter().all(|s| s.t_us >= t0));
     }
 }

@@ -150,6 +150,15 @@ pub fn run(args: &TrackArgs) -> Result<(), ebiv::Error> {
     if bin.is_some() {
         ebiv::export::field_extension(&field_path)?;
         super::check_output_path(&field_path)?;
+        if same_file(&field_path, &args.output) {
+            return Err(ebiv::Error::parameter(
+                "field",
+                format!(
+                    "{} is also the tracks' output: give the binned field another file",
+                    field_path.display()
+                ),
+            ));
+        }
     }
     if let Some(dir) = &args.png {
         std::fs::create_dir_all(dir).map_err(|e| ebiv::Error::io(dir, e))?;
@@ -211,7 +220,17 @@ pub fn run(args: &TrackArgs) -> Result<(), ebiv::Error> {
         s.outliers,
         args.output.display()
     );
+    if let Some(dir) = &args.png {
+        write_figures(dir, &table, &source, &run, params.polarity)?;
+    }
     if let Some(bin) = &bin {
+        if table.is_empty() {
+            println!(
+                "binned field: no tracks to bin, {} not written",
+                field_path.display()
+            );
+            return Ok(());
+        }
         let mut field = bin_tracks(&table, run.geometry, bin)?;
         ebiv::track::bin::add_track_attributes(&mut field, &attributes);
         ebiv::export::write_field(&field, &field_path)?;
@@ -225,10 +244,25 @@ pub fn run(args: &TrackArgs) -> Result<(), ebiv::Error> {
             field_path.display()
         );
     }
-    if let Some(dir) = &args.png {
-        write_figures(dir, &table, &source, &run, params.polarity)?;
-    }
     Ok(())
+}
+
+/// Whether two output paths name one file (the same path, or one that exists under both).
+fn same_file(a: &std::path::Path, b: &std::path::Path) -> bool {
+    if a == b {
+        return true;
+    }
+    let canonical = |p: &std::path::Path| {
+        let parent = p
+            .parent()
+            .filter(|d| !d.as_os_str().is_empty())
+            .unwrap_or(std::path::Path::new("."));
+        parent
+            .canonicalize()
+            .ok()
+            .map(|d| d.join(p.file_name().unwrap_or_default()))
+    };
+    matches!((canonical(a), canonical(b)), (Some(x), Some(y)) if x == y)
 }
 
 /// Longest interval drawn in the track map: beyond it the tracks would cover each other.

@@ -442,9 +442,11 @@ def bin_tracks(
 
     ``tracks``: a dataset or dict from :func:`track`, a dict of the columns (``track_id``,
     ``t_us``, ``x``, ``y``, ``u``, ``v`` at least), or a track file (.csv, .npz; .nc with
-    xarray). ``geometry``: the sensor size ``(width, height)`` the grid covers; the track
-    files do not state it, so it must be given (``ebiv.open(path).geometry``). The tracks'
-    attributes (settings and source) are added to the field's, as the command adds them.
+    xarray). ``geometry``: the sensor size ``(width, height)`` the grid covers; by default
+    the tracks' ``sensor_width`` and ``sensor_height`` attributes (datasets of :func:`track`,
+    .nc and .npz files); a dict of columns or a CSV file needs it given
+    (``ebiv.open(path).geometry``). The tracks' attributes (settings and source, not their
+    ``method``) are added to the field's, as the command adds them.
 
     Returns the dataset :func:`process` returns (``u``, ``v``, ``u_unc``, ``v_unc``,
     ``status``, …; ``event_count`` holds the samples of a bin, ``slab_us`` the interval),

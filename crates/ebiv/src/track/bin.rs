@@ -89,10 +89,21 @@ pub fn bin_tracks(
     };
     let (origin, interval) = match params.interval_us {
         Some(i) => (t0.div_euclid(i) * i, i),
-        None => (t0, (t1 - t0 + 1).max(1)),
+        None => (t0, t1.saturating_sub(t0).saturating_add(1).max(1)),
     };
-    let fields = ((t1 - origin) / interval + 1) as usize;
-    if fields as u64 * x.len() as u64 * y.len() as u64 > crate::sim::scenario::MAX_TRUTH_VALUES {
+    if interval > i64::from(u32::MAX) {
+        return Err(crate::Error::parameter(
+            "bin-interval",
+            format!(
+                "the tracks span {} µs: give an interval of at most 71 min",
+                interval
+            ),
+        ));
+    }
+    let fields = (t1.saturating_sub(origin) / interval).saturating_add(1) as u128;
+    if fields * x.len() as u128 * y.len() as u128
+        > u128::from(crate::sim::scenario::MAX_TRUTH_VALUES)
+    {
         return Err(crate::Error::parameter(
             "bin-interval",
             format!(

@@ -83,6 +83,9 @@ impl Track {
 /// within a millisecond of its centre.
 const OUTLIER_PASS_US: f64 = 2000.0;
 
+/// Most samples of one track: a longer track is sampled at a multiple of the interval.
+const MAX_SAMPLES: i64 = 1_000_000;
+
 /// Fewest events in a fit window.
 const MIN_FIT_EVENTS: f64 = 30.0;
 
@@ -153,7 +156,11 @@ const BIN_US: f64 = 50.0;
 /// Fits the events of a track (time order) at the sample times.
 pub struct PathFitter<'a> {
     params: &'a TrackParams,
-    /// Event times less the latency, µs.
+    /// Camera time that the times count from, µs: a multiple of the sample interval at or
+    /// before the first event, so that the sample times stay multiples of it.
+    base: i64,
+    /// Event times less the latency, µs from `base` (small numbers whatever the camera's
+    /// clock reads).
     times: Vec<f64>,
     xs: Vec<f64>,
     ys: Vec<f64>,
@@ -166,9 +173,12 @@ pub struct PathFitter<'a> {
 impl<'a> PathFitter<'a> {
     /// A fitter over `events` (time order).
     pub fn new(events: &[TrackEvent], params: &'a TrackParams) -> Self {
+        let base = events
+            .first()
+            .map_or(0, |e| e.t.div_euclid(params.sample_us) * params.sample_us);
         let times = events
             .iter()
-            .map(|e| e.t as f64 - params.latency_us)
+            .map(|e| e.t.saturating_sub(base) as f64 - params.latency_us)
             .collect();
         let xs = events.iter().map(|e| e.x as f64).collect();
         let ys = events.iter().map(|e| e.y as f64).collect();
@@ -178,6 +188,7 @@ impl<'a> PathFitter<'a> {
             .collect();
         let mut fitter = PathFitter {
             params,
+            base,
             times,
             xs,
             ys,
@@ -237,16 +248,23 @@ impl<'a> PathFitter<'a> {
             return (Vec::new(), 0);
         }
         let (first, last) = (self.times[0], self.times[n - 1]);
-        let step = self.params.sample_us as f64;
-        let mut times: Vec<f64> = Vec::new();
-        let mut k = (first / step).ceil();
-        while k * step <= last {
-            times.push(k * step);
-            k += 1.0;
+        // Sample times from `base`, µs: multiples of the interval within the events' span
+        // (the middle of a span shorter than one interval); at most MAX_SAMPLES a track, a
+        // longer track sampled at a multiple of the interval.
+        let step = self.params.sample_us;
+        let k0 = (first / step as f64).ceil() as i64;
+        let k1 = (last / step as f64).floor() as i64;
+        let count = (k1 - k0 + 1).max(0);
+        let stride = (count / MAX_SAMPLES + 1).max(1);
+        let mut times_us: Vec<i64> = (0..count.div_euclid(stride) + i64::from(count % stride != 0))
+            .map(|i| (k0 + i * stride) * step)
+            .filter(|&t| t as f64 <= last)
+            .collect();
+        if times_us.is_empty() {
+            times_us.push(((first + last) / 2.0).round() as i64);
         }
-        if times.is_empty() {
-            times.push(((first + last) / 2.0).round());
-        }
+        let times: Vec<f64> = times_us.iter().map(|&t| t as f64).collect();
+        let step = step as f64;
         // First pass: fits every [`OUTLIER_PASS_US`], and the residual of every event from
         // the nearest of them.
         let coarse: Vec<f64> = {
@@ -296,9 +314,12 @@ impl<'a> PathFitter<'a> {
         if outliers > 0 {
             self.group();
         }
-        let samples = times
+        let samples = times_us
             .iter()
-            .filter_map(|&t| self.local(t).map(|f| f.sample(t)))
+            .filter_map(|&t| {
+                let fit = self.local(t as f64)?;
+                Some(fit.sample(self.base.saturating_add(t)))
+            })
             .collect();
         (samples, outliers)
     }
@@ -360,12 +381,13 @@ impl<'a> PathFitter<'a> {
         let (mut xsw, mut ysw, mut xx, mut yy) = (0.0, 0.0, 0.0, 0.0);
         let mut count = 0.0;
         for p in points {
-            let dt = (p.t - t) / 1000.0;
-            let u = (dt / scale).abs();
-            if u >= 1.0 {
+            // Time in units of the half window: |u| < 1 keeps the moments of order 6
+            // well scaled whatever the window.
+            let u = (p.t - t) / 1000.0 / scale;
+            if u.abs() >= 1.0 {
                 continue;
             }
-            let c = 1.0 - u * u * u;
+            let c = 1.0 - u.abs().powi(3);
             let w = c * c * c;
             let (wn, w2n) = (w * p.n, w * w * p.n);
             let (x, y) = (p.x - x0, p.y - y0);
@@ -379,7 +401,7 @@ impl<'a> PathFitter<'a> {
                     xw[k] += wn * x * power;
                     yw[k] += wn * y * power;
                 }
-                power *= dt;
+                power *= u;
             }
             xsw += wn * x * p.s;
             ysw += wn * y * p.s;
@@ -429,7 +451,22 @@ impl<'a> PathFitter<'a> {
         let var_x = rx / sum_w * correction;
         let var_y = ry / sum_w * correction;
         // Sandwich covariance per unit variance: M⁻¹ M2 M⁻¹.
-        let cov = sandwich(&inv, &m2, nt);
+        let mut cov = sandwich(&inv, &m2, nt);
+        // Back from half windows to ms: the coefficient of uᵏ over scaleᵏ.
+        let factor = |k: usize| {
+            if k <= degree {
+                scale.powi(k as i32)
+            } else {
+                1.0
+            }
+        };
+        for (i, row) in cov.iter_mut().enumerate().take(nt) {
+            ax[i] /= factor(i);
+            ay[i] /= factor(i);
+            for (j, c) in row.iter_mut().enumerate().take(nt) {
+                *c /= factor(i) * factor(j);
+            }
+        }
         let normal_count = count as u32;
         let residual = ((rx + ry) / sum_w).sqrt();
         Some(LocalFit {
@@ -453,12 +490,13 @@ impl LocalFit {
         (dot(&r, &self.ax, nt), dot(&r, &self.ay, nt))
     }
 
-    /// The sample at `t`, the particle's time (µs; the event times less the latency).
-    fn sample(&self, t: f64) -> TrackSample {
+    /// The sample at camera time `t_us`, the particle's time (the event times less the
+    /// latency).
+    fn sample(&self, t_us: i64) -> TrackSample {
         let sd = |k: usize, var: f64| (self.cov[k][k] * var).sqrt();
         let acc = self.degree >= 2;
         TrackSample {
-            t_us: t.round() as i64,
+            t_us,
             x: self.ax[0],
             y: self.ay[0],
             u: self.ax[1],

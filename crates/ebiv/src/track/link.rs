@@ -21,6 +21,12 @@
 use super::detect::{detection_from_events, Detection, TrackEvent};
 use super::params::TrackParams;
 
+/// Least distance a kept track travels from its first to its last detection, px.
+pub const MIN_TRAVEL_PX: f64 = 1.0;
+
+/// How long a track may stay within [`MIN_TRAVEL_PX`] of its start before it ends, µs.
+const STUCK_US: f64 = 50_000.0;
+
 /// A track still being built: its detections and their events.
 #[derive(Debug)]
 pub struct LiveTrack {
@@ -44,21 +50,45 @@ impl LiveTrack {
         let &(t1, x1, y1) = self.detections.last().expect("a track has a detection");
         let dt_ms = (t - t1) / 1000.0;
         let slab_ms = params.slab_us as f64 / 1000.0;
-        // Beyond one slab the gate widens with the time coasted (1 px per ms).
-        let coast = (dt_ms - slab_ms).max(0.0);
+        // Beyond one slab the gate widens with the time coasted (1 px per ms), to at most
+        // three times the gate.
+        let coast = (dt_ms - slab_ms).clamp(0.0, 2.0 * params.gate_px);
         if self.detections.len() >= 2 {
             let (u, v) = self.recent_velocity(params);
             (x1 + u * dt_ms, y1 + v * dt_ms, params.gate_px + coast)
         } else if let Some((u, v)) = self.first_velocity {
-            // A single detection's velocity is rough: allow half of its travel as error.
-            let travel = (u * u + v * v).sqrt() * dt_ms.abs();
+            // A single detection's velocity is rough: allow half of its travel over (at most)
+            // one slab as error.
+            let travel = (u * u + v * v).sqrt() * dt_ms.abs().min(slab_ms);
             (
                 x1 + u * dt_ms,
                 y1 + v * dt_ms,
                 params.gate_px + 0.5 * travel + coast,
             )
         } else {
-            (x1, y1, params.gate_px + params.max_speed * dt_ms.abs())
+            (
+                x1,
+                y1,
+                params.gate_px + params.max_speed * dt_ms.abs().min(slab_ms),
+            )
+        }
+    }
+
+    /// Whether the track has stayed within [`MIN_TRAVEL_PX`] of its start for [`STUCK_US`]: a
+    /// hot or flickering pixel, not a particle (an event camera sees particles that move).
+    /// It ends then, so that its events do not pile up for the whole recording.
+    fn is_stuck(&self) -> bool {
+        let (Some(first), Some(last)) = (self.detections.first(), self.detections.last()) else {
+            return false;
+        };
+        last.0 - first.0 >= STUCK_US && (last.1 - first.1).hypot(last.2 - first.2) < MIN_TRAVEL_PX
+    }
+
+    /// Distance from the first to the last detection, px.
+    pub fn travel(&self) -> f64 {
+        match (self.detections.first(), self.detections.last()) {
+            (Some(a), Some(b)) => (b.1 - a.1).hypot(b.2 - a.2),
+            _ => 0.0,
         }
     }
 
@@ -255,9 +285,11 @@ impl Linker {
         let Some(first) = events.first() else {
             return (Vec::new(), Vec::new());
         };
-        let t_mid = (first.t + events[events.len() - 1].t) as f64 / 2.0;
+        let t_mid = first.t as f64 / 2.0 + events[events.len() - 1].t as f64 / 2.0;
         let gate = self.params.gate_px;
-        let cell = 8.0f64.max(2.0 * gate);
+        // Movers sit at their position of mid-slab; an event may lie `gate` from where the
+        // mover is at its own time, up to half a slab of motion (at most `max_speed`) away.
+        let slab_ms = self.params.slab_us as f64 / 1000.0;
         // The tracks that can claim: (track, last detection, velocity).
         let movers: Vec<Mover> = self
             .live
@@ -275,6 +307,14 @@ impl Linker {
         if movers.is_empty() {
             return (Vec::new(), events.to_vec());
         }
+        let fastest = movers
+            .iter()
+            .map(|m| m.2 .0.hypot(m.2 .1))
+            .fold(0.0f64, f64::max)
+            .min(self.params.max_speed);
+        let cell = (2.0 * gate)
+            .max(8.0)
+            .max(gate + fastest * slab_ms / 2.0 + 1.0);
         let grid = &mut self.grid;
         grid.reset(cell, movers.len());
         for (k, (_, d, vel)) in movers.iter().enumerate() {
@@ -348,7 +388,7 @@ impl Linker {
         let max_gap = self.params.max_gap_us as f64;
         let (ended, live): (Vec<_>, Vec<_>) = std::mem::take(&mut self.live)
             .into_iter()
-            .partition(|t| slab_end - t.last_time() > max_gap);
+            .partition(|t| slab_end - t.last_time() > max_gap || t.is_stuck());
         self.live = live;
         for d in detections.into_iter().flatten() {
             self.live.push(LiveTrack {
@@ -452,16 +492,25 @@ impl Linker {
             buckets.entry(key).or_default().push(i);
         }
         let t_ref = detections.iter().map(|d| d.t).sum::<f64>() / detections.len() as f64;
+        let key_range = |f: fn(&(i64, i64)) -> i64| {
+            let keys = buckets.keys().map(f);
+            (keys.clone().min().unwrap_or(0), keys.max().unwrap_or(0))
+        };
+        let ((x_lo, x_hi), (y_lo, y_hi)) = (key_range(|k| k.0), key_range(|k| k.1));
+        // Detections lie up to half a slab from t_ref, where the prediction may move by up
+        // to `max_speed` per ms.
+        let drift = self.params.max_speed * self.params.slab_us as f64 / 2000.0;
         let mut pairs: Vec<(f64, usize, usize)> = Vec::new();
         for (ti, track) in self.live.iter().enumerate() {
             if busy[ti] {
                 continue;
             }
             let (px, py, gate) = track.predict(t_ref, &self.params);
-            let reach = ((gate / cell).ceil() as i64).max(1);
+            let reach = (((gate + drift) / cell).ceil() as i64).max(1);
             let (cx, cy) = ((px / cell).floor() as i64, (py / cell).floor() as i64);
-            for bx in cx - reach..=cx + reach {
-                for by in cy - reach..=cy + reach {
+            // Only the buckets that hold detections.
+            for bx in (cx - reach).max(x_lo)..=(cx + reach).min(x_hi) {
+                for by in (cy - reach).max(y_lo)..=(cy + reach).min(y_hi) {
                     let Some(list) = buckets.get(&(bx, by)) else {
                         continue;
                     };

@@ -34,6 +34,9 @@ use detect::Detector;
 use link::{Linker, LiveTrack};
 use rayon::prelude::*;
 
+/// Largest sensor tracked, pixels (its maps take 8 bytes a pixel: 512 MiB).
+pub const MAX_PIXELS: u64 = 1 << 26;
+
 /// Counts of a tracking run.
 #[derive(Debug, Clone, Copy, Default, PartialEq, serde::Serialize)]
 pub struct TrackSummary {
@@ -47,7 +50,8 @@ pub struct TrackSummary {
     pub detections: u64,
     /// Tracks kept.
     pub tracks: u64,
-    /// Tracks shorter than `min_duration` (or with fewer than three detections), dropped.
+    /// Tracks dropped: shorter than `min_duration`, with fewer than three detections, or
+    /// travelling less than 1 px (a hot pixel, not a particle).
     pub dropped: u64,
     /// Events left out of the fits as outliers.
     pub outliers: u64,
@@ -71,7 +75,6 @@ pub struct Tracker {
     slab_index: Option<i64>,
     /// With `slab = auto`, the first events, held until the slab is chosen.
     probe: Vec<TrackEvent>,
-    geometry: Geometry,
     summary: TrackSummary,
 }
 
@@ -79,6 +82,15 @@ impl Tracker {
     /// A tracker for a sensor of `geometry`; checks the settings.
     pub fn new(geometry: Geometry, params: TrackParams) -> Result<Self> {
         params.validate()?;
+        let pixels = u64::from(geometry.width) * u64::from(geometry.height);
+        if pixels == 0 || pixels > MAX_PIXELS {
+            return Err(crate::Error::parameter(
+                "geometry",
+                format!(
+                    "{geometry}: tracking needs a sensor of 1 to {MAX_PIXELS} pixels (it keeps 8 bytes per pixel)"
+                ),
+            ));
+        }
         Ok(Tracker {
             detector: Detector::new(geometry.width, geometry.height),
             linker: Linker::new(params.clone(), geometry),
@@ -90,7 +102,6 @@ impl Tracker {
             slab: Vec::new(),
             slab_index: None,
             probe: Vec::new(),
-            geometry,
         })
     }
 
@@ -138,7 +149,7 @@ impl Tracker {
         let mut probe = std::mem::take(&mut self.probe);
         // The choice clusters slab by slab: time order, as the stream is tracked.
         probe.sort_by_key(|e| e.t);
-        let slab_us = slab::choose_slab(&probe, self.geometry, self.params.min_events);
+        let slab_us = slab::choose_slab(&probe, &mut self.detector, self.params.min_events);
         self.params.slab_us = slab_us;
         self.linker.set_slab(slab_us);
         self.summary.slab_us = slab_us;
@@ -182,7 +193,7 @@ impl Tracker {
         self.slab.clear();
         self.summary.slabs += 1;
         self.summary.detections += (claimed.len() + detections.len()) as u64;
-        let slab_end = ((index + 1) * self.params.slab_us) as f64;
+        let slab_end = index.saturating_add(1).saturating_mul(self.params.slab_us) as f64;
         let ended = self.linker.step(claimed, detections, slab_end);
         self.summary.peak_live = self.summary.peak_live.max(self.linker.live_count() as u64);
         if !ended.is_empty() {
@@ -216,7 +227,9 @@ fn long_enough(track: &LiveTrack, params: &TrackParams) -> bool {
     let (Some(first), Some(last)) = (track.events.first(), track.events.last()) else {
         return false;
     };
-    track.detections.len() >= 3 && last.t - first.t >= params.min_duration_us
+    track.detections.len() >= 3
+        && last.t - first.t >= params.min_duration_us
+        && track.travel() >= link::MIN_TRAVEL_PX
 }
 
 fn fit_track(mut track: LiveTrack, params: &TrackParams) -> Track {

@@ -109,6 +109,15 @@ pub const TRACK_SETTINGS: &[(&str, &str, &str)] = &[
 impl TrackParams {
     /// Set one setting from its text, by its name in [`TRACK_SETTINGS`] (`-` or `_`).
     pub fn set(&mut self, key: &str, text: &str) -> Result<()> {
+        // The settings change only when the new value is valid.
+        let mut next = self.clone();
+        next.apply(key, text)?;
+        next.validate()?;
+        *self = next;
+        Ok(())
+    }
+
+    fn apply(&mut self, key: &str, text: &str) -> Result<()> {
         let key = key.replace('_', "-");
         let bad = |why: String| Error::parameter(key.clone(), format!("{text:?}: {why}"));
         let duration = || crate::units::parse_us(text).map_err(bad);
@@ -125,7 +134,13 @@ impl TrackParams {
                     return Err(bad("must be longer than 0 (or auto)".into()));
                 }
             }
-            "min-events" => self.min_events = number()? as u32,
+            "min-events" => {
+                let n = number()?;
+                if n.fract() != 0.0 || !(1.0..=1e6).contains(&n) {
+                    return Err(bad("must be a whole number from 1 to 1000000".into()));
+                }
+                self.min_events = n as u32
+            }
             "gate" => self.gate_px = number()?,
             "max-speed" => self.max_speed = number()?,
             "max-gap" => self.max_gap_us = duration()?,
@@ -152,7 +167,7 @@ impl TrackParams {
                 ));
             }
         }
-        self.validate()
+        Ok(())
     }
 
     /// The value of one setting as text, by its name in [`TRACK_SETTINGS`] (`None` for an
@@ -220,7 +235,7 @@ impl TrackParams {
         if !(0..=1_000_000_000).contains(&self.min_duration_us) {
             return fail(
                 "min-duration",
-                format!("{} µs: must be at least 0", self.min_duration_us),
+                format!("{} µs: must be 0 to 1000 s", self.min_duration_us),
             );
         }
         if !(10..=10_000_000).contains(&self.fit_window_us) {

@@ -264,7 +264,7 @@ pub fn score_tracks(tracks: &[Track], truth: &[TrackPoint], options: &ScoreOptio
     let mut followed: HashMap<u64, Vec<(f64, f64)>> = HashMap::new();
     let (mut se_pos, mut se_vel, mut se_acc, mut n_acc) = (0.0, 0.0, 0.0, 0usize);
     let (mut along_sum, mut cover_v, mut cover_p) = (0.0, 0usize, 0usize);
-    let (mut sxx, mut sxy, mut sx, mut sy) = (0.0, 0.0, 0.0, 0.0);
+    let (mut sxx, mut sxy, mut sx, mut sy, mut moving) = (0.0, 0.0, 0.0, 0.0, 0.0f64);
     let mut length_sum = 0.0;
     for track in tracks {
         let s = &track.samples;
@@ -339,6 +339,7 @@ pub fn score_tracks(tracks: &[Track], truth: &[TrackPoint], options: &ScoreOptio
                 sxy += speed * along;
                 sx += speed;
                 sy += along;
+                moving += 1.0;
             }
             cover_v +=
                 (eu.abs() <= 2.0 * q.unc[2]) as usize + (ev.abs() <= 2.0 * q.unc[3]) as usize;
@@ -354,12 +355,12 @@ pub fn score_tracks(tracks: &[Track], truth: &[TrackPoint], options: &ScoreOptio
     score.position_rms = (se_pos / n).sqrt();
     score.velocity_rms = (se_vel / n).sqrt();
     score.acceleration_rms = (se_acc / n_acc.max(1) as f64).sqrt();
-    score.position_bias_along = along_sum / n;
+    score.position_bias_along = along_sum / moving.max(1.0);
     score.velocity_coverage_2sigma = cover_v as f64 / (2.0 * n);
     score.position_coverage_2sigma = cover_p as f64 / (2.0 * n);
-    let denominator = n * sxx - sx * sx;
+    let denominator = moving * sxx - sx * sx;
     score.lag_us = if denominator > 0.0 {
-        -(n * sxy - sx * sy) / denominator * 1000.0
+        -(moving * sxy - sx * sy) / denominator * 1000.0
     } else {
         0.0
     };

@@ -8,7 +8,6 @@
 //! The choice is made on the first [`PROBE_US`] of the events.
 
 use super::detect::{Detector, TrackEvent};
-use crate::event::Geometry;
 
 /// The slabs tried, shortest first, µs.
 pub const CANDIDATES_US: [i64; 3] = [500, 1000, 2000];
@@ -26,14 +25,13 @@ const DETECTED_SHARE: f64 = 0.8;
 /// cut into slabs of `slab_us`.
 pub fn detected_share(
     events: &[TrackEvent],
-    geometry: Geometry,
+    detector: &mut Detector,
     slab_us: i64,
     min_events: u32,
 ) -> f64 {
     if events.is_empty() {
         return 0.0;
     }
-    let mut detector = Detector::new(geometry.width, geometry.height);
     let (mut detected, mut start) = (0usize, 0usize);
     while start < events.len() {
         let slab = events[start].t.div_euclid(slab_us);
@@ -50,10 +48,10 @@ pub fn detected_share(
 
 /// The shortest of [`CANDIDATES_US`] whose detected share reaches 80 %, else the one with the
 /// largest share; 500 µs without events.
-pub fn choose_slab(events: &[TrackEvent], geometry: Geometry, min_events: u32) -> i64 {
+pub fn choose_slab(events: &[TrackEvent], detector: &mut Detector, min_events: u32) -> i64 {
     let mut best = (CANDIDATES_US[0], -1.0);
     for slab in CANDIDATES_US {
-        let share = detected_share(events, geometry, slab, min_events);
+        let share = detected_share(events, detector, slab, min_events);
         if share >= DETECTED_SHARE {
             return slab;
         }
@@ -98,10 +96,7 @@ mod tests {
 
     #[test]
     fn sparse_events_get_a_longer_slab() {
-        let g = Geometry {
-            width: 200,
-            height: 10,
-        };
+        let g = &mut Detector::new(200, 10);
         // 2 events per px at 1.5 px/ms: 1.5 events per 500 µs, 6 per 2 ms.
         let slow = sparse_particle(1.5, 20_000);
         assert_eq!(choose_slab(&slow, g, 4), 2000);
