@@ -328,9 +328,22 @@ pub fn write_tracks_npz(
     write_npz(path, &members)
 }
 
-/// Read a CSV file by its header: the rows as maps from the named `columns` to numbers.
-fn read_csv_columns(path: &Path, columns: &[&str]) -> Result<Vec<Vec<f64>>> {
-    let text = std::fs::read_to_string(path).map_err(|e| Error::io(path, e))?;
+/// Read a CSV file by its header: the rows as the numbers of the named `columns`, and each
+/// row's line number.
+fn read_csv_columns(path: &Path, columns: &[&str]) -> Result<Vec<(u64, Vec<f64>)>> {
+    let bytes = std::fs::read(path).map_err(|e| Error::io(path, e))?;
+    let context = path.display().to_string();
+    let parse_error = |line: u64, message: String| Error::Parse {
+        context: context.clone(),
+        line,
+        message,
+    };
+    let text = String::from_utf8(bytes).map_err(|_| {
+        parse_error(
+            1,
+            "not a text file (a CSV table of tracks was expected)".into(),
+        )
+    })?;
     let mut lines = text.lines();
     let header: Vec<&str> = lines
         .next()
@@ -341,17 +354,15 @@ fn read_csv_columns(path: &Path, columns: &[&str]) -> Result<Vec<Vec<f64>>> {
     let index: Vec<usize> = columns
         .iter()
         .map(|c| {
-            header.iter().position(|h| h == c).ok_or_else(|| {
-                Error::corrupt(
-                    path.display().to_string(),
-                    0,
-                    format!("no column {c:?} in the header"),
-                )
-            })
+            header
+                .iter()
+                .position(|h| h == c)
+                .ok_or_else(|| parse_error(1, format!("no column {c:?} in the header")))
         })
         .collect::<Result<_>>()?;
     let mut rows = Vec::new();
     for (n, line) in lines.enumerate() {
+        let line_number = n as u64 + 2;
         if line.trim().is_empty() {
             continue;
         }
@@ -361,22 +372,39 @@ fn read_csv_columns(path: &Path, columns: &[&str]) -> Result<Vec<Vec<f64>>> {
             .map(|&i| {
                 let cell = cells.get(i).map(|c| c.trim()).unwrap_or("");
                 cell.parse::<f64>().map_err(|_| {
-                    Error::corrupt(
-                        path.display().to_string(),
-                        0,
-                        format!(
-                            "line {}: {:?} is not a number in column {}",
-                            n + 2,
-                            cell,
-                            header[i]
-                        ),
+                    parse_error(
+                        line_number,
+                        format!("{cell:?} is not a number in column {}", header[i]),
                     )
                 })
             })
             .collect::<Result<Vec<f64>>>()?;
-        rows.push(row);
+        rows.push((line_number, row));
     }
     Ok(rows)
+}
+
+/// `value` as a whole number within `range`, else an error naming the line and column.
+fn whole(
+    path: &Path,
+    line: u64,
+    column: &str,
+    value: f64,
+    range: std::ops::RangeInclusive<f64>,
+) -> Result<f64> {
+    if value.fract() == 0.0 && range.contains(&value) {
+        Ok(value)
+    } else {
+        Err(Error::Parse {
+            context: path.display().to_string(),
+            line,
+            message: format!(
+                "{value} in column {column} is not a whole number in [{}, {}]",
+                range.start(),
+                range.end()
+            ),
+        })
+    }
 }
 
 /// Read the tracks of a CSV file written by [`TrackWriter`] (samples of one track together).
@@ -384,9 +412,15 @@ pub fn read_tracks_csv(path: &Path) -> Result<Vec<Track>> {
     let names: Vec<&str> = TRACK_COLUMNS.iter().map(|c| c.0).collect();
     let rows = read_csv_columns(path, &names)?;
     let mut table = TrackTable::default();
-    for r in rows {
-        table.track_id.push(r[0] as u64);
-        table.t_us.push(r[1] as i64);
+    // Integers a double holds exactly.
+    let exact = 9_007_199_254_740_992.0;
+    for (line, r) in rows {
+        table
+            .track_id
+            .push(whole(path, line, "track_id", r[0], 0.0..=exact)? as u64);
+        table
+            .t_us
+            .push(whole(path, line, "t_us", r[1], -exact..=exact)? as i64);
         for (column, value) in table.values.iter_mut().zip(&r[2..]) {
             column.push(*value);
         }
@@ -397,16 +431,17 @@ pub fn read_tracks_csv(path: &Path) -> Result<Vec<Track>> {
 /// Read true particle paths as `ebiv simulate --tracks` writes them (id,t_us,x,y,z,u,v).
 pub fn read_truth_tracks_csv(path: &Path) -> Result<Vec<crate::sim::simulation::TrackPoint>> {
     let rows = read_csv_columns(path, &["id", "t_us", "x", "y", "z", "u", "v"])?;
-    Ok(rows
-        .into_iter()
-        .map(|r| crate::sim::simulation::TrackPoint {
-            id: r[0] as u64,
-            t_us: r[1],
-            x: r[2],
-            y: r[3],
-            z: r[4],
-            u: r[5],
-            v: r[6],
+    rows.into_iter()
+        .map(|(line, r)| {
+            Ok(crate::sim::simulation::TrackPoint {
+                id: whole(path, line, "id", r[0], 0.0..=9_007_199_254_740_992.0)? as u64,
+                t_us: r[1],
+                x: r[2],
+                y: r[3],
+                z: r[4],
+                u: r[5],
+                v: r[6],
+            })
         })
-        .collect())
+        .collect()
 }
