@@ -3,7 +3,7 @@
 //!
 //! Tracks give velocities where particles are, at any distance from a wall; averaging them in
 //! bins smaller than a correlation window gives mean fields of finer resolution than the
-//! window estimators (Kähler, Scharnowski & Cierpka, Exp. Fluids 52:1641, 2012). A bin's
+//! window estimators (Kähler, Scharnowski & Cierpka, Exp. Fluids, 2012). A bin's
 //! uncertainty is the spread of its samples over the square root of the number of tracks in
 //! it (the samples of one track are not independent); a bin crossed by fewer than
 //! `min_tracks` tracks is left invalid ([`Status::FEW_EVENTS`], or [`Status::NO_EVENTS`]

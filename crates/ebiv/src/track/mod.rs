@@ -1,17 +1,19 @@
 //! Particle tracks from events (Lagrangian particle tracking, PTV).
 //!
-//! The events are cut into short time slabs; in each, the events of touching pixels form a
-//! cluster, one per particle image ([`detect`]). Clusters are linked into tracks slab by slab
-//! with a constant-velocity predictor, a gate and one-to-one assignment, gaps bridged up to
-//! `max_gap` ([`link`]). A track that has ended is fitted with a local cubic in time through
+//! The events are cut into short time slabs (their length chosen from the first events by
+//! [`slab`]); in each, the tracks claim the events near their predicted particles, and the
+//! rest of the events of touching pixels form clusters, one per particle image ([`detect`]).
+//! Clusters are linked into tracks slab by slab with a constant-velocity predictor, a gate
+//! and one-to-one assignment, gaps bridged up to `max_gap`, tracks on one particle merged
+//! ([`link`]). A track that has ended is fitted with a local cubic in time through
 //! its events, which gives position, velocity and acceleration at every sample with their
 //! uncertainties ([`fit`]). Memory holds only the tracks alive; each track is handed over as
 //! it ends ([`Tracker`]). Tracks binned on a grid give a mean vector field ([`bin`]); tracks
 //! are scored against the simulator's particle paths by [`score`].
 //!
 //! Related work: Wang, Idoughi & Heidrich (ECCV 2020) cluster events per slab and match
-//! particles one-to-one; Borer et al. (Exp. Fluids 58:27, 2017) and TrackAER (Rusch & Rösgen,
-//! Exp. Fluids 64, 2023) follow tracers event by event in real time; STELLA (Sachs, Willert,
+//! particles one-to-one; Borer et al. (Exp. Fluids, 2017) and TrackAER (Rusch & Rösgen,
+//! Exp. Fluids, 2023) follow tracers event by event in real time; STELLA (Sachs, Willert,
 //! Cierpka et al.) fits tracks with Kalman and spline filters.
 
 pub mod bin;

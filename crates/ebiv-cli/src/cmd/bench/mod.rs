@@ -76,6 +76,24 @@ pub struct DecodeBenchArgs {
     pub input: InputArgs,
 }
 
+/// Simulate `duration_us` of the `paper-rate` scene (at `density` particles/px instead of
+/// its own, if given): the events, the simulation and the seconds it took.
+fn paper_rate(
+    duration_us: i64,
+    density: Option<f64>,
+) -> Result<(ebiv::EventBuffer, ebiv::sim::simulation::Simulation, f64), ebiv::Error> {
+    let text = ebiv::sim::scenario::Scenario::example("paper-rate").expect("built-in example");
+    let mut scenario = ebiv::sim::scenario::Scenario::from_toml(text, "paper-rate")?;
+    scenario.duration = duration_us;
+    if let Some(density) = density {
+        scenario.particles.density = density;
+    }
+    let sim = scenario.simulation()?;
+    let started = Instant::now();
+    let events = sim.run(None, &|_| {})?.events;
+    Ok((events, sim, started.elapsed().as_secs_f64()))
+}
+
 pub fn run(args: &BenchArgs) -> Result<(), ebiv::Error> {
     match &args.what {
         BenchWhat::Decode(a) => decode(a),

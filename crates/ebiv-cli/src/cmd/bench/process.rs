@@ -40,21 +40,12 @@ pub struct ProcessBenchArgs {
 }
 
 pub fn run(args: &ProcessBenchArgs) -> Result<(), ebiv::Error> {
-    let text = ebiv::sim::scenario::Scenario::example("paper-rate").expect("built-in example");
-    let mut scenario = ebiv::sim::scenario::Scenario::from_toml(text, "paper-rate")?;
-    scenario.duration = args.duration;
-    if let Some(density) = args.density {
-        scenario.particles.density = density;
-    }
-    let sim = scenario.simulation()?;
-    let started = Instant::now();
-    let events = sim.run(None, &|_| {})?.events;
+    let (events, sim, seconds) = super::paper_rate(args.duration, args.density)?;
     let seconds_of_recording = args.duration as f64 * 1e-6;
     println!(
-        "simulated {} events on {} in {:.1} s: {:.1} M events/s of recording, {} ms",
+        "simulated {} events on {} in {seconds:.1} s: {:.1} M events/s of recording, {} ms",
         events.len(),
         sim.geometry,
-        started.elapsed().as_secs_f64(),
         events.len() as f64 / seconds_of_recording * 1e-6,
         args.duration / 1000
     );

@@ -20,14 +20,7 @@ pub struct TrackBenchArgs {
 }
 
 pub fn run(args: &TrackBenchArgs) -> Result<(), ebiv::Error> {
-    let text = ebiv::sim::scenario::Scenario::example("paper-rate").expect("built-in example");
-    let mut scenario = ebiv::sim::scenario::Scenario::from_toml(text, "paper-rate")?;
-    scenario.duration = args.duration;
-    if let Some(density) = args.density {
-        scenario.particles.density = density;
-    }
-    let sim = scenario.simulation()?;
-    let events = sim.run(None, &|_| {})?.events;
+    let (events, sim, _) = super::paper_rate(args.duration, args.density)?;
     let seconds_of_recording = args.duration as f64 * 1e-6;
     let camera_rate = events.len() as f64 / seconds_of_recording;
     println!(
