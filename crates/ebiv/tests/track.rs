@@ -5,7 +5,7 @@ use ebiv::export::TrackTable;
 use ebiv::sim::scenario::Scenario;
 use ebiv::track::bin::{bin_tracks, BinParams};
 use ebiv::track::score::{score_tracks, ScoreOptions};
-use ebiv::track::{track_events, TrackParams, Tracker};
+use ebiv::track::{track_events, Track, TrackParams, Tracker};
 use ebiv::{EventBuffer, Geometry};
 
 /// The vortex example on a smaller sensor (the vortex scaled to it), 16 ms.
@@ -93,25 +93,30 @@ fn batches_of_any_size_give_the_same_tracks() {
     let (whole, _) = track_events(&out.events, g, &params).unwrap();
     assert!(!whole.is_empty());
     for size in [1000, 77_777] {
-        let mut tracker = Tracker::new(g, params.clone()).unwrap();
-        let mut tracks = Vec::new();
-        let events = &out.events;
-        let mut start = 0;
-        while start < events.len() {
-            let end = (start + size).min(events.len());
-            let mut batch = EventBuffer::new();
-            for i in start..end {
-                batch.push(events.t[i], events.x[i], events.y[i], events.p[i]);
-            }
-            tracker.push(&batch, &mut |t| tracks.push(t));
-            start = end;
+        assert_same_tracks(&in_batches(&out.events, g, &params, size), &whole);
+    }
+}
+
+/// The tracks of `events` pushed to a tracker in batches of `size`.
+fn in_batches(events: &EventBuffer, g: Geometry, params: &TrackParams, size: usize) -> Vec<Track> {
+    let mut tracker = Tracker::new(g, params.clone()).unwrap();
+    let mut tracks = Vec::new();
+    for start in (0..events.len()).step_by(size) {
+        let mut batch = EventBuffer::new();
+        for i in start..(start + size).min(events.len()) {
+            batch.push(events.t[i], events.x[i], events.y[i], events.p[i]);
         }
-        tracker.finish(&mut |t| tracks.push(t));
-        assert_eq!(tracks.len(), whole.len());
-        for (a, b) in tracks.iter().zip(&whole) {
-            assert_eq!(a.id, b.id);
-            assert_eq!(a.samples, b.samples);
-        }
+        tracker.push(&batch, &mut |t| tracks.push(t));
+    }
+    tracker.finish(&mut |t| tracks.push(t));
+    tracks
+}
+
+fn assert_same_tracks(tracks: &[Track], expected: &[Track]) {
+    assert_eq!(tracks.len(), expected.len());
+    for (a, b) in tracks.iter().zip(expected) {
+        assert_eq!(a.id, b.id);
+        assert_eq!(a.samples, b.samples);
     }
 }
 
@@ -213,22 +218,7 @@ fn the_automatic_slab_gives_the_same_tracks_in_batches() {
     let params = TrackParams::default();
     let (whole, summary) = track_events(&out.events, g, &params).unwrap();
     assert_eq!(summary.slab_us, 500, "bright particles: the shortest slab");
-    let mut tracker = Tracker::new(g, params).unwrap();
-    let mut tracks = Vec::new();
-    let e = &out.events;
-    for start in (0..e.len()).step_by(5000) {
-        let mut batch = EventBuffer::new();
-        for i in start..(start + 5000).min(e.len()) {
-            batch.push(e.t[i], e.x[i], e.y[i], e.p[i]);
-        }
-        tracker.push(&batch, &mut |t| tracks.push(t));
-    }
-    tracker.finish(&mut |t| tracks.push(t));
-    assert_eq!(tracks.len(), whole.len());
-    assert!(tracks
-        .iter()
-        .zip(&whole)
-        .all(|(a, b)| a.samples == b.samples));
+    assert_same_tracks(&in_batches(&out.events, g, &params, 5000), &whole);
 }
 
 #[test]

@@ -126,7 +126,7 @@ impl Args for TrackSettingArgs {
 pub fn run(args: &TrackArgs) -> Result<(), ebiv::Error> {
     // Everything that can be checked is checked before reading.
     let params = args.settings.params()?;
-    let writer_format = ebiv::export::TrackFormat::of(&args.output)?;
+    ebiv::export::TrackFormat::of(&args.output)?;
     super::check_output_path(&args.output)?;
     let bin = args
         .bin
@@ -163,7 +163,6 @@ pub fn run(args: &TrackArgs) -> Result<(), ebiv::Error> {
     if let Some(dir) = &args.png {
         std::fs::create_dir_all(dir).map_err(|e| ebiv::Error::io(dir, e))?;
     }
-    let _ = writer_format;
     let _catch = crate::interrupt::catch();
     let options = args.input.read_options()?;
     let source = EventSource::file(&args.file, &options);
