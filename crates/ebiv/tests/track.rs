@@ -260,3 +260,29 @@ fn hostile_inputs_give_errors_or_nothing_never_a_crash() {
         assert!(t.samples.iter().all(|s| s.t_us >= t0));
     }
 }
+
+#[test]
+fn samples_stop_short_of_the_sensor_edge() {
+    // A particle image (3 rows; ON events at its leading column, OFF one column behind)
+    // crossing a 32 px sensor to the right at 0.5 px/ms and leaving it: the sensor cuts its
+    // image, whose events stay at the edge while the particle leaves, so the samples stop
+    // a margin inside the outermost pixel centres (without it, the last sample is at 30.95).
+    let g = Geometry {
+        width: 32,
+        height: 32,
+    };
+    let mut events = EventBuffer::new();
+    for k in 0..9000i64 {
+        let lead = 5 + k / 200;
+        for (column, polarity, delay) in [(lead, 1u8, 0i64), (lead - 1, 0, 3)] {
+            if column < 32 {
+                events.push(k * 10 + delay, column as u16, 9 + (k % 3) as u16, polarity);
+            }
+        }
+    }
+    let (tracks, _) = track_events(&events, g, &TrackParams::default()).unwrap();
+    assert_eq!(tracks.len(), 1, "{} tracks", tracks.len());
+    // The outermost pixel centre is 31; the margin is 1 px.
+    let last = tracks[0].samples.last().unwrap();
+    assert!(last.x <= 30.0 && last.x > 29.5, "last sample {last:?}");
+}

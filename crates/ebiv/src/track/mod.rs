@@ -39,6 +39,11 @@ use rayon::prelude::*;
 /// Largest sensor tracked, pixels (its maps take 8 bytes a pixel: 512 MiB).
 pub const MAX_PIXELS: u64 = 1 << 26;
 
+/// Samples closer than this to the outermost pixel centres are left out, px: there the
+/// sensor's edge cuts the particle image, its events' centroid stays inside while the
+/// particle leaves, and a track would follow the cut image along the edge.
+pub const EDGE_MARGIN_PX: f64 = 1.0;
+
 /// Counts of a tracking run.
 #[derive(Debug, Clone, Copy, Default, PartialEq, serde::Serialize)]
 pub struct TrackSummary {
@@ -70,6 +75,7 @@ pub struct TrackSummary {
 /// creation within the tracks ending together.
 pub struct Tracker {
     params: TrackParams,
+    geometry: Geometry,
     detector: Detector,
     linker: Linker,
     slab: Vec<TrackEvent>,
@@ -101,6 +107,7 @@ impl Tracker {
                 ..TrackSummary::default()
             },
             params,
+            geometry,
             slab: Vec::new(),
             slab_index: None,
             probe: Vec::new(),
@@ -206,10 +213,14 @@ impl Tracker {
     /// Fit the ended tracks long enough to keep (in parallel) and pass them on by id.
     fn emit(&mut self, ended: Vec<LiveTrack>, sink: &mut dyn FnMut(Track)) {
         let params = &self.params;
+        let geometry = self.geometry;
         let (keep, drop): (Vec<LiveTrack>, Vec<LiveTrack>) =
             ended.into_iter().partition(|t| long_enough(t, params));
         self.summary.dropped += drop.len() as u64;
-        let mut fitted: Vec<Track> = keep.into_par_iter().map(|t| fit_track(t, params)).collect();
+        let mut fitted: Vec<Track> = keep
+            .into_par_iter()
+            .map(|t| fit_track(t, params, geometry))
+            .collect();
         fitted.sort_by_key(|t| t.id);
         for track in fitted {
             if track.samples.is_empty() {
@@ -234,11 +245,12 @@ fn long_enough(track: &LiveTrack, params: &TrackParams) -> bool {
         && track.travel() >= link::MIN_TRAVEL_PX
 }
 
-fn fit_track(mut track: LiveTrack, params: &TrackParams) -> Track {
+fn fit_track(mut track: LiveTrack, params: &TrackParams, geometry: Geometry) -> Track {
     // Detections of successive slabs are in time order; events within them too.
     track.events.sort_by_key(|e| e.t);
     let span_us = (track.events[0].t, track.events[track.events.len() - 1].t);
-    let (samples, outliers) = fit::PathFitter::new(&track.events, params).fit();
+    let (mut samples, outliers) = fit::PathFitter::new(&track.events, params).fit();
+    samples.retain(|s| away_from_edge(s, geometry));
     Track {
         id: track.id,
         samples,
@@ -246,6 +258,14 @@ fn fit_track(mut track: LiveTrack, params: &TrackParams) -> Track {
         outliers,
         span_us,
     }
+}
+
+/// Whether a sample lies at least [`EDGE_MARGIN_PX`] inside the outermost pixel centres.
+fn away_from_edge(sample: &TrackSample, geometry: Geometry) -> bool {
+    let inside = |position: f64, pixels: u32| {
+        position >= EDGE_MARGIN_PX && position <= f64::from(pixels) - 1.0 - EDGE_MARGIN_PX
+    };
+    inside(sample.x, geometry.width) && inside(sample.y, geometry.height)
 }
 
 /// Track every particle in `events` (time order): the tracks in order of their end.
