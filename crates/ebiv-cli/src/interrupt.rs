@@ -68,6 +68,11 @@ pub fn check(path: &std::path::Path) -> Result<(), ebiv::Error> {
     ))
 }
 
+/// Whether a SIGINT or SIGTERM arrived since [`catch`].
+pub fn received() -> bool {
+    RECEIVED.load(Ordering::SeqCst) != 0
+}
+
 /// If a caught signal arrived, end the process by it now, with its default action (after the
 /// command has cleaned up and reported): the exit status then says the signal, as shells
 /// expect. Returns otherwise.

@@ -52,6 +52,9 @@ enum Command {
     Simulate(cmd::simulate::SimulateArgs),
     /// Measure throughput on this machine, and the event estimators' operating envelope.
     Bench(cmd::bench::BenchArgs),
+    /// Velocity fields while the camera records: follow a growing file, read a pipe or replay;
+    /// a live view in the browser.
+    Live(Box<cmd::live::LiveArgs>),
     /// Follow individual particles: tracks with velocity, acceleration and uncertainty.
     Track(Box<cmd::track::TrackArgs>),
     /// Errors of a vector field against the truth, or agreement of two fields, with a report.
@@ -93,6 +96,7 @@ fn main() -> ExitCode {
         Command::Init(a) => cmd::process::init(a),
         Command::Simulate(a) => cmd::simulate::run(a),
         Command::Bench(a) => cmd::bench::run(a),
+        Command::Live(a) => cmd::live::run(a),
         Command::Track(a) => cmd::track::run(a),
         Command::Assess(a) => cmd::assess::run(a),
         Command::Study(a) => cmd::study::run(a),

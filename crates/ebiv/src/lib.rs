@@ -25,6 +25,7 @@ pub mod filter;
 pub mod frame;
 pub mod grid;
 pub mod io;
+pub mod live;
 pub mod peak;
 pub mod piv;
 pub mod process;

@@ -8,6 +8,7 @@ pub mod demo;
 pub mod frames;
 pub mod index;
 pub mod info;
+pub mod live;
 pub mod process;
 pub mod render;
 pub mod simulate;

@@ -74,36 +74,50 @@ pub fn write_field_csv(field: &FieldSeries, path: &Path) -> Result<()> {
     let header = csv_header(field);
     write_atomic(path, |w| {
         writeln!(w, "{header}")?;
-        for (ti, &t) in field.t_us.iter().enumerate() {
-            for (row, &y) in field.y.iter().enumerate() {
-                for (col, &x) in field.x.iter().enumerate() {
-                    let i = field.index(ti, row, col);
-                    write!(w, "{t},{x},{y},{},{}", field.u[i], field.v[i])?;
-                    if !field.ground_truth {
-                        write!(
-                            w,
-                            ",{},{},{},{},{},{},{}",
-                            field.u_unc[i],
-                            field.v_unc[i],
-                            field.status[i].0,
-                            field.peak[i],
-                            field.peak_ratio[i],
-                            field.event_count[i],
-                            field.slab_us[i]
-                        )?;
-                    }
-                    if let Some(p) = &physical {
-                        write!(w, ",{},{},{},{}", p.x_mm[col], p.y_mm[row], p.u[i], p.v[i])?;
-                        if !field.ground_truth {
-                            write!(w, ",{},{}", p.u_unc[i], p.v_unc[i])?;
-                        }
-                    }
+        for ti in 0..field.t_us.len() {
+            for row in 0..field.y.len() {
+                for col in 0..field.x.len() {
+                    write_csv_row(w, field, physical.as_ref(), ti, row, col)?;
                     writeln!(w)?;
                 }
             }
         }
         Ok(())
     })
+}
+
+/// The values of one vector of `field` as a CSV line, without its line end.
+pub(crate) fn write_csv_row(
+    w: &mut impl Write,
+    field: &FieldSeries,
+    physical: Option<&Physical>,
+    ti: usize,
+    row: usize,
+    col: usize,
+) -> std::io::Result<()> {
+    let (t, x, y) = (field.t_us[ti], field.x[col], field.y[row]);
+    let i = field.index(ti, row, col);
+    write!(w, "{t},{x},{y},{},{}", field.u[i], field.v[i])?;
+    if !field.ground_truth {
+        write!(
+            w,
+            ",{},{},{},{},{},{},{}",
+            field.u_unc[i],
+            field.v_unc[i],
+            field.status[i].0,
+            field.peak[i],
+            field.peak_ratio[i],
+            field.event_count[i],
+            field.slab_us[i]
+        )?;
+    }
+    if let Some(p) = physical {
+        write!(w, ",{},{},{},{}", p.x_mm[col], p.y_mm[row], p.u[i], p.v[i])?;
+        if !field.ground_truth {
+            write!(w, ",{},{}", p.u_unc[i], p.v_unc[i])?;
+        }
+    }
+    Ok(())
 }
 
 #[cfg(test)]

@@ -16,6 +16,8 @@
 //! uncertainty, status and quality variables by the NetCDF and CSV writers.
 
 mod csv;
+mod live;
+mod live_view;
 pub(crate) mod netcdf;
 mod npz;
 mod tecplot;
@@ -23,6 +25,8 @@ mod tracks;
 mod vtk;
 
 pub use self::csv::{csv_header, write_field_csv, CSV_HEADER};
+pub use self::live::LiveWriter;
+pub use self::live_view::{LiveView, LIVE_VIEW_INTERVAL};
 pub use self::netcdf::{
     netcdf_dataset, write_dataset_netcdf, write_field_netcdf, Attribute, Dataset, Values, Variable,
 };

@@ -31,7 +31,7 @@ use crate::field::{FieldSeries, Status, TimeBasis};
 use netcdf3::{DataSet, FileWriter, Version};
 use std::path::Path;
 
-fn nc_err(path: &Path, e: impl std::fmt::Debug) -> Error {
+pub(crate) fn nc_err(path: &Path, e: impl std::fmt::Debug) -> Error {
     Error::Write {
         what: path.display().to_string(),
         message: format!("NetCDF: {e:?}"),
@@ -71,10 +71,45 @@ pub fn write_field_netcdf(field: &FieldSeries, path: &Path) -> Result<()> {
 
 /// Write `dataset` to `path` as NetCDF-3 (64-bit offset), through a temporary file.
 pub fn write_dataset_netcdf(dataset: &Dataset, path: &Path) -> Result<()> {
+    let ds = define_dataset(dataset, None, path)?;
+    let temp = partial_path(path);
+    let werr = |e: netcdf3::error::WriteError| nc_err(path, e);
+    let result = (|| {
+        let mut w = FileWriter::open(&temp).map_err(werr)?;
+        w.set_def(&ds, Version::Offset64Bit, 0).map_err(werr)?;
+        for var in &dataset.variables {
+            match &var.values {
+                Values::F64(v) => w.write_var_f64(&var.name, v),
+                Values::F32(v) => w.write_var_f32(&var.name, v),
+                Values::I16(v) => w.write_var_i16(&var.name, v),
+                Values::I32(v) => w.write_var_i32(&var.name, v),
+            }
+            .map_err(werr)?;
+        }
+        w.close().map_err(werr)
+    })();
+    if let Err(e) = result {
+        let _ = std::fs::remove_file(&temp);
+        return Err(e);
+    }
+    std::fs::rename(&temp, path).map_err(|e| Error::io(path, e))
+}
+
+/// The NetCDF-3 definition (dimensions, variables, attributes) of `dataset`; with
+/// `records`, that dimension is the unlimited one, of length 0 (records are appended).
+pub(crate) fn define_dataset(
+    dataset: &Dataset,
+    records: Option<&str>,
+    path: &Path,
+) -> Result<DataSet> {
     let err = |e: netcdf3::error::InvalidDataSet| nc_err(path, e);
     let mut ds = DataSet::new();
     for (name, len) in &dataset.dims {
-        ds.add_fixed_dim(name, *len).map_err(err)?;
+        if records == Some(name.as_str()) {
+            ds.set_unlimited_dim(name, 0).map_err(err)?;
+        } else {
+            ds.add_fixed_dim(name, *len).map_err(err)?;
+        }
     }
     for var in &dataset.variables {
         let dims = &var.dims;
@@ -102,27 +137,7 @@ pub fn write_dataset_netcdf(dataset: &Dataset, path: &Path) -> Result<()> {
         }
         .map_err(err)?;
     }
-    let temp = partial_path(path);
-    let werr = |e: netcdf3::error::WriteError| nc_err(path, e);
-    let result = (|| {
-        let mut w = FileWriter::open(&temp).map_err(werr)?;
-        w.set_def(&ds, Version::Offset64Bit, 0).map_err(werr)?;
-        for var in &dataset.variables {
-            match &var.values {
-                Values::F64(v) => w.write_var_f64(&var.name, v),
-                Values::F32(v) => w.write_var_f32(&var.name, v),
-                Values::I16(v) => w.write_var_i16(&var.name, v),
-                Values::I32(v) => w.write_var_i32(&var.name, v),
-            }
-            .map_err(werr)?;
-        }
-        w.close().map_err(werr)
-    })();
-    if let Err(e) = result {
-        let _ = std::fs::remove_file(&temp);
-        return Err(e);
-    }
-    std::fs::rename(&temp, path).map_err(|e| Error::io(path, e))
+    Ok(ds)
 }
 
 /// The values of one variable, in the NetCDF type they are stored as.

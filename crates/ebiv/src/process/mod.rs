@@ -17,6 +17,7 @@ mod times;
 
 pub use multipass::{run_passes, MultiPass, PassEvaluator, PassReport, PassesOutcome};
 pub use plan::{coverage, first_event_time, plan_fields, Coverage, PlannedFields, MAX_FIELDS};
+pub(crate) use stream::run_attributes;
 pub use stream::{
     process_recording, scan_extent, BatchSource, FieldDone, MemorySource, RecordingExtent,
     RunSummary, SlidingEvents,

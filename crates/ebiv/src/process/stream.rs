@@ -277,7 +277,10 @@ pub fn process_recording<E: Estimator, S: BatchSource + Send>(
 
 /// The processing parameters as output attributes (the writers add the software, the time
 /// basis and the status legend).
-fn run_attributes<E: Estimator>(estimator: &E, params: &ProcessParams) -> Vec<(String, String)> {
+pub(crate) fn run_attributes<E: Estimator>(
+    estimator: &E,
+    params: &ProcessParams,
+) -> Vec<(String, String)> {
     let mut a = vec![
         ("method".to_string(), estimator.name().to_string()),
         ("polarity".to_string(), params.polarity.name().to_string()),

@@ -7,7 +7,7 @@
 
 mod events;
 mod figures;
-mod flags;
+pub(crate) mod flags;
 mod piv;
 
 pub use ebiv::grid::describe_passes;
@@ -37,14 +37,23 @@ pub struct ProcessArgs {
     pub input: InputArgs,
 }
 
-pub fn run(args: &ProcessArgs) -> Result<(), ebiv::Error> {
+/// The settings of a configuration file (warnings printed), with the flags over them.
+pub fn parse_settings(
+    config: Option<&std::path::Path>,
+    flags: &flags::SettingFlags,
+) -> Result<ProcessSettings, ebiv::Error> {
     let mut settings = ProcessSettings::default();
-    if let Some(path) = &args.config {
+    if let Some(path) = config {
         for warning in settings.apply_file(path)? {
             eprintln!("warning: {}: {warning}", path.display());
         }
     }
-    args.settings.apply(&mut settings)?;
+    flags.apply(&mut settings)?;
+    Ok(settings)
+}
+
+pub fn run(args: &ProcessArgs) -> Result<(), ebiv::Error> {
+    let settings = parse_settings(args.config.as_deref(), &args.settings)?;
     let run = settings.resolve()?;
     super::check_output_path(&run.output)?;
     ebiv::export::field_extension(&run.output)?;

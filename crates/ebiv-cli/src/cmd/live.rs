@@ -1,0 +1,276 @@
+//! `ebiv live`: velocity fields while the camera records, from a growing file, a pipe, or a
+//! replayed recording; appended to a file as they arrive and shown in a browser.
+//!
+//! The library runs the pipeline ([`ebiv::live::run_live`]), writes ([`ebiv::export::LiveWriter`])
+//! and serves the page ([`ebiv::export::LiveView`]); this module reads the flags and prints.
+
+use super::process::{flags::SettingFlags, parse_settings};
+use crate::input::InputArgs;
+use clap::Args;
+use ebiv::export::{LiveView, LiveWriter};
+use ebiv::live::{LiveField, LiveInput, LiveOptions, LiveSink, LiveStart, LiveSummary};
+use ebiv::process::Method;
+use ebiv::Error;
+use std::io::Write;
+use std::net::SocketAddr;
+use std::path::PathBuf;
+use std::sync::Arc;
+use std::time::{Duration, Instant};
+
+/// Compute velocity fields while the camera records, and show them live.
+///
+/// INPUT is a recording still being written (`--follow`), `-` for standard input (RAW and
+/// other formats that need no seeking), or a finished recording (`--replay` plays it at its
+/// own rate; without it, it is read as fast as the fields are computed). The method and every
+/// setting are those of `ebiv process` (flags and `--config`); a field is computed every slab
+/// (or every STEP of `--time ::STEP`). When the machine cannot keep up with a live input, whole
+/// fields are dropped, never events of a field, and the output says so (`fields_dropped`).
+/// Ctrl-C stops the run; the output file is then complete up to the last field.
+#[derive(Debug, Args)]
+pub struct LiveArgs {
+    /// Settings file (TOML, see `ebiv init`); flags override its keys.
+    #[arg(long, value_name = "TOML")]
+    pub config: Option<PathBuf>,
+    /// Follow a recording that is still being written: wait for new data at its end.
+    #[arg(long, conflicts_with = "replay")]
+    pub follow: bool,
+    /// With --follow: end when the file has not grown for this long.
+    #[arg(long, value_name = "DUR", default_value = "5s")]
+    pub idle: String,
+    /// Play a finished recording at its own rate (for demonstrations and tests).
+    #[arg(long)]
+    pub replay: bool,
+    /// With --replay: speed relative to the recording's own rate.
+    #[arg(long, value_name = "X", default_value_t = 1.0)]
+    pub speed: f64,
+    /// Slabs that may wait for the estimator; one more arriving is dropped.
+    #[arg(long, value_name = "N", default_value_t = ebiv::live::DEFAULT_QUEUE)]
+    pub queue: usize,
+    /// Serve the live view, a web page updated as fields arrive, at ADDR (default
+    /// 127.0.0.1:8080; port 0 picks a free one).
+    #[arg(long, value_name = "ADDR", num_args = 0..=1, default_missing_value = "127.0.0.1:8080")]
+    pub serve: Option<String>,
+    /// Allow --serve on an address other than loopback: anyone who can reach it sees the
+    /// page, without a password.
+    #[arg(long)]
+    pub allow_remote: bool,
+    /// Write a summary of the run (counts, rates, latency percentiles) as JSON.
+    #[arg(long, value_name = "FILE")]
+    pub summary: Option<PathBuf>,
+    #[command(flatten)]
+    pub settings: SettingFlags,
+    #[command(flatten)]
+    pub input: InputArgs,
+}
+
+pub fn run(args: &LiveArgs) -> Result<(), Error> {
+    let settings = parse_settings(args.config.as_deref(), &args.settings)?;
+    if settings.png.is_some() {
+        return Err(Error::parameter(
+            "png",
+            "live shows its fields in the browser (--serve); figures per field are ebiv process's",
+        ));
+    }
+    let run = settings.resolve()?;
+    if matches!(run.method, Method::Piv | Method::Pulsed) {
+        return Err(Error::parameter(
+            "method",
+            "live computes corrsum and motion fields; piv and pulsed are for ebiv process",
+        ));
+    }
+    let given_output = args
+        .settings
+        .given
+        .iter()
+        .any(|(flag, _)| *flag == "output")
+        || args.config.as_deref().is_some_and(config_sets_output);
+    let output = given_output.then(|| run.output.clone());
+    if let Some(path) = &output {
+        super::check_output_path(path)?;
+    }
+    let writer = output.as_deref().map(LiveWriter::create).transpose()?;
+    let input = live_input(args, &run.input_path())?;
+    let mut options = LiveOptions::new(input);
+    let read = args.input.read_options()?;
+    options.read = ebiv::io::ReadOptions {
+        batch_bytes: options.read.batch_bytes,
+        ..read
+    };
+    options.queue = args.queue.max(1);
+    let view = match &args.serve {
+        Some(addr) => {
+            let addr: SocketAddr = addr.parse().map_err(|_| {
+                Error::parameter(
+                    "serve",
+                    format!("`{addr}` is not an address such as 127.0.0.1:8080"),
+                )
+            })?;
+            let view = LiveView::start(addr, args.allow_remote)?;
+            println!("live view: http://{}/", view.address());
+            options.events_every = Some(ebiv::export::LIVE_VIEW_INTERVAL);
+            Some(view)
+        }
+        None => None,
+    };
+    let _catch = crate::interrupt::catch();
+    let mut sink = Printer {
+        writer,
+        view,
+        start: None,
+        last_line: Instant::now(),
+        first_line: true,
+    };
+    let summary = ebiv::live::run_live(
+        &run,
+        &options,
+        Arc::new(crate::interrupt::received),
+        &mut sink,
+    );
+    let Printer { writer, view, .. } = sink;
+    let finished = writer.map(LiveWriter::finish).transpose();
+    eprintln!();
+    let summary = summary?;
+    finished?;
+    report(&summary, output.as_deref());
+    if let Some(path) = &args.summary {
+        let text = serde_json::to_string_pretty(&summary).expect("a summary serialises");
+        std::fs::write(path, text + "\n").map_err(|e| Error::io(path, e))?;
+    }
+    drop(view);
+    Ok(())
+}
+
+/// Whether the configuration file at `path` sets `output`.
+fn config_sets_output(path: &std::path::Path) -> bool {
+    std::fs::read_to_string(path)
+        .ok()
+        .and_then(|text| text.parse::<toml::Table>().ok())
+        .is_some_and(|table| table.contains_key("output"))
+}
+
+fn live_input(args: &LiveArgs, path: &std::path::Path) -> Result<LiveInput, Error> {
+    let stdin = path.as_os_str() == "-";
+    if stdin && (args.follow || args.replay) {
+        return Err(Error::parameter(
+            "input",
+            "standard input (-) is read as it comes; --follow and --replay take a file",
+        ));
+    }
+    if !(args.speed.is_finite() && args.speed > 0.0) {
+        return Err(Error::parameter(
+            "speed",
+            format!("must be a positive number, got {}", args.speed),
+        ));
+    }
+    let idle = ebiv::units::parse_us(&args.idle)
+        .map_err(|m| Error::parameter("idle", m))
+        .and_then(|us| {
+            u64::try_from(us)
+                .ok()
+                .filter(|&us| us > 0)
+                .map(Duration::from_micros)
+                .ok_or_else(|| {
+                    Error::parameter("idle", format!("must be positive, got {}", args.idle))
+                })
+        })?;
+    Ok(if stdin {
+        LiveInput::Stdin
+    } else if args.follow {
+        LiveInput::Follow {
+            path: path.to_path_buf(),
+            idle,
+        }
+    } else if args.replay {
+        LiveInput::Replay {
+            path: path.to_path_buf(),
+            speed: args.speed,
+        }
+    } else {
+        LiveInput::File(path.to_path_buf())
+    })
+}
+
+/// Writes, serves and prints a status line about twice a second.
+struct Printer {
+    writer: Option<LiveWriter>,
+    view: Option<LiveView>,
+    start: Option<LiveStart>,
+    last_line: Instant,
+    first_line: bool,
+}
+
+impl LiveSink for Printer {
+    fn started(&mut self, start: &LiveStart) -> Result<(), Error> {
+        println!("{}", start.description);
+        if let Some(view) = &self.view {
+            view.started(start);
+        }
+        self.start = Some(start.clone());
+        Ok(())
+    }
+
+    fn field(&mut self, f: &LiveField) -> Result<(), Error> {
+        let start = self.start.as_ref().expect("started before the first field");
+        if let Some(writer) = &mut self.writer {
+            writer.append(start, f.t0_us, f.field, f.dropped_before)?;
+        }
+        if let Some(view) = &self.view {
+            view.publish(start, f);
+        }
+        if self.first_line || self.last_line.elapsed() >= Duration::from_millis(500) {
+            self.first_line = false;
+            self.last_line = Instant::now();
+            let s = &f.stats;
+            let mut err = std::io::stderr();
+            let _ = write!(
+                err,
+                "\r{:>7.1} s  fields {} ({:.1}/s)  dropped {}  events {:.2} M/s  latency {:.1} ms (p99 {:.1} ms)   ",
+                s.elapsed_s,
+                s.fields,
+                s.field_rate,
+                s.dropped,
+                s.event_rate / 1e6,
+                s.latency_ms,
+                s.latency_p99_ms
+            );
+            let _ = err.flush();
+        }
+        Ok(())
+    }
+}
+
+fn report(s: &LiveSummary, output: Option<&std::path::Path>) {
+    let t = &s.stats;
+    println!(
+        "{} field(s) in {:.2} s ({:.1} fields/s), {} dropped, {} events ({:.2} M events/s){}",
+        t.fields,
+        t.elapsed_s,
+        t.field_rate,
+        t.dropped,
+        t.events,
+        t.event_rate / 1e6,
+        if s.stopped { "; stopped" } else { "" }
+    );
+    println!(
+        "latency from a slab's end to its field: median {:.1} ms, 99th percentile {:.1} ms, largest {:.1} ms",
+        s.latency_p50_ms, s.latency_p99_ms, s.latency_max_ms
+    );
+    if t.dropped > 0 {
+        println!(
+            "warning: {} field(s) dropped: the machine did not keep up (fewer passes, larger windows, a longer --time step or --threads help)",
+            t.dropped
+        );
+    }
+    if s.empty_fields > 0 {
+        println!(
+            "warning: {} field(s) held no event of the selected polarity",
+            s.empty_fields
+        );
+    }
+    for w in &s.report.warnings {
+        println!("warning: {w}");
+    }
+    if let Some(path) = output {
+        println!("wrote {}", path.display());
+    }
+}
