@@ -11,6 +11,7 @@
 
 mod convert;
 mod errors;
+mod live;
 mod measure;
 mod observe;
 mod recording;
@@ -41,6 +42,7 @@ fn _ebiv(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(measure::write, m)?)?;
     m.add_function(wrap_pyfunction!(measure::setting_names, m)?)?;
     m.add_function(wrap_pyfunction!(measure::examples, m)?)?;
+    m.add_function(wrap_pyfunction!(live::live, m)?)?;
     m.add_function(wrap_pyfunction!(track::track, m)?)?;
     m.add_function(wrap_pyfunction!(track::bin_tracks, m)?)?;
     m.add_function(wrap_pyfunction!(track::assess_tracks, m)?)?;

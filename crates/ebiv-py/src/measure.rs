@@ -32,7 +32,7 @@ const NOT_KEYWORDS: [(&str, &str); 4] = [
 /// Settings from keywords: a `config` file first (as `--config`), then every other keyword
 /// over it. Returns the settings, the reader options and whether to write `output` (given
 /// as a keyword, or by the configuration file, as the command writes it).
-fn settings_from(
+pub(crate) fn settings_from(
     py: Python<'_>,
     keywords: Option<&Bound<'_, PyDict>>,
 ) -> PyResult<(ProcessSettings, ReadOptions, bool)> {
@@ -75,7 +75,7 @@ fn settings_from(
 
 /// Before any work: the field file `path` can be written (its folder exists: else
 /// `OSError`) in a format its extension names (else `ValueError` naming `parameter`).
-fn check_output(path: &std::path::Path, parameter: &str) -> PyResult<()> {
+pub(crate) fn check_output(path: &std::path::Path, parameter: &str) -> PyResult<()> {
     ebiv::export::check_output_path(path).py_err()?;
     ebiv::export::field_extension(path)
         .map_err(|e| PyValueError::new_err(format!("invalid parameter `{parameter}`: {e}")))?;
@@ -83,7 +83,7 @@ fn check_output(path: &std::path::Path, parameter: &str) -> PyResult<()> {
 }
 
 /// Set the method when given; else it stays the configuration file's, or the default.
-fn set_method(settings: &mut ProcessSettings, method: Option<&str>) -> PyResult<()> {
+pub(crate) fn set_method(settings: &mut ProcessSettings, method: Option<&str>) -> PyResult<()> {
     if let Some(method) = method {
         settings
             .set("method", &toml::Value::String(method.into()))
@@ -93,7 +93,7 @@ fn set_method(settings: &mut ProcessSettings, method: Option<&str>) -> PyResult<
 }
 
 /// Issue a Python `UserWarning`.
-fn warn(py: Python<'_>, message: &str) -> PyResult<()> {
+pub(crate) fn warn(py: Python<'_>, message: &str) -> PyResult<()> {
     py.import("warnings")?.call_method1("warn", (message,))?;
     Ok(())
 }

@@ -8,6 +8,7 @@ use ebiv::settings::{RunObserver, RunPlan};
 use pyo3::prelude::*;
 use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 use std::sync::mpsc::RecvTimeoutError;
+use std::sync::Arc;
 use std::time::Duration;
 
 /// How often the calling thread looks at signals and progress.
@@ -16,12 +17,17 @@ const POLL: Duration = Duration::from_millis(20);
 /// Shared between the work and the thread watching it.
 #[derive(Default)]
 pub struct Watch {
-    stop: AtomicBool,
+    stop: Arc<AtomicBool>,
     done: AtomicU64,
     total: AtomicU64,
 }
 
 impl Watch {
+    /// The flag that is set when the caller is interrupted, for work that polls it.
+    pub fn stop_flag(&self) -> Arc<AtomicBool> {
+        self.stop.clone()
+    }
+
     /// Report progress: `done` of `total` steps.
     pub fn progress(&self, done: u64, total: u64) {
         self.total.store(total, Ordering::Relaxed);

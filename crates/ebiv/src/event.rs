@@ -189,6 +189,14 @@ impl EventBuffer {
         self.p.reserve(n);
     }
 
+    /// Keep the first `len` events (the triggers stay).
+    pub fn truncate(&mut self, len: usize) {
+        self.t.truncate(len);
+        self.x.truncate(len);
+        self.y.truncate(len);
+        self.p.truncate(len);
+    }
+
     /// Append one event.
     #[inline]
     pub fn push(&mut self, t: i64, x: u16, y: u16, p: u8) {

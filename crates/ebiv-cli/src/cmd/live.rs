@@ -7,7 +7,7 @@
 use super::process::{flags::SettingFlags, parse_settings};
 use crate::input::InputArgs;
 use clap::Args;
-use ebiv::export::{LiveView, LiveWriter};
+use ebiv::export::{LiveOutputs, LiveView, LiveWriter};
 use ebiv::live::{LiveField, LiveInput, LiveOptions, LiveSink, LiveStart, LiveSummary};
 use ebiv::process::Method;
 use ebiv::Error;
@@ -114,9 +114,7 @@ pub fn run(args: &LiveArgs) -> Result<(), Error> {
     };
     let _catch = crate::interrupt::catch();
     let mut sink = Printer {
-        writer,
-        view,
-        start: None,
+        outputs: LiveOutputs::new(writer, view),
         last_line: Instant::now(),
         first_line: true,
     };
@@ -126,8 +124,7 @@ pub fn run(args: &LiveArgs) -> Result<(), Error> {
         Arc::new(crate::interrupt::received),
         &mut sink,
     );
-    let Printer { writer, view, .. } = sink;
-    let finished = writer.map(LiveWriter::finish).transpose();
+    let finished = sink.outputs.finish();
     eprintln!();
     let summary = summary?;
     finished?;
@@ -136,7 +133,6 @@ pub fn run(args: &LiveArgs) -> Result<(), Error> {
         let text = serde_json::to_string_pretty(&summary).expect("a summary serialises");
         std::fs::write(path, text + "\n").map_err(|e| Error::io(path, e))?;
     }
-    drop(view);
     Ok(())
 }
 
@@ -192,9 +188,7 @@ fn live_input(args: &LiveArgs, path: &std::path::Path) -> Result<LiveInput, Erro
 
 /// Writes, serves and prints a status line about twice a second.
 struct Printer {
-    writer: Option<LiveWriter>,
-    view: Option<LiveView>,
-    start: Option<LiveStart>,
+    outputs: LiveOutputs,
     last_line: Instant,
     first_line: bool,
 }
@@ -202,21 +196,11 @@ struct Printer {
 impl LiveSink for Printer {
     fn started(&mut self, start: &LiveStart) -> Result<(), Error> {
         println!("{}", start.description);
-        if let Some(view) = &self.view {
-            view.started(start);
-        }
-        self.start = Some(start.clone());
-        Ok(())
+        self.outputs.started(start)
     }
 
     fn field(&mut self, f: &LiveField) -> Result<(), Error> {
-        let start = self.start.as_ref().expect("started before the first field");
-        if let Some(writer) = &mut self.writer {
-            writer.append(start, f.t0_us, f.field, f.dropped_before)?;
-        }
-        if let Some(view) = &self.view {
-            view.publish(start, f);
-        }
+        self.outputs.field(f)?;
         if self.first_line || self.last_line.elapsed() >= Duration::from_millis(500) {
             self.first_line = false;
             self.last_line = Instant::now();

@@ -39,6 +39,7 @@ __all__ = [
     "bin_tracks",
     "examples",
     "index",
+    "live",
     "open",
     "piv",
     "process",
@@ -231,6 +232,52 @@ def process(
     finally:
         close()
     return _result(raw, decode_times)
+
+
+def live(
+    source: PathLike,
+    method: Optional[str] = None,
+    *,
+    follow: bool = False,
+    idle: str = "5s",
+    replay: bool = False,
+    speed: float = 1.0,
+    queue: int = 2,
+    serve: Optional[str] = None,
+    allow_remote: bool = False,
+    on_field: Optional[Callable[[Any, Dict[str, Any]], Any]] = None,
+    decode_times: bool = True,
+    **settings: Any,
+) -> Dict[str, Any]:
+    """Velocity fields while the camera records, as ``ebiv live`` computes them.
+
+    ``source``: a recording still being written (``follow=True``: wait for new data at its
+    end, and end once it has not grown for ``idle``), ``"-"`` for standard input, or a
+    finished recording (``replay=True`` plays it at ``speed`` times its own rate; otherwise
+    it is read as fast as the fields are computed). ``method`` and ``settings`` are those of
+    :func:`process`; the fields, their times and their slabs are those :func:`process`
+    gives on the finished recording. When the machine cannot keep up with a live input,
+    whole fields are dropped (at most ``queue`` slabs wait).
+
+    ``on_field(dataset, stats)`` is called with every field as it is ready: a dataset of one
+    time, as :func:`process` returns, and a dict of the run's counts (``events``, ``fields``,
+    ``dropped``, ``dropped_before``, ``event_rate``, ``field_rate``, ``latency_ms``,
+    ``latency_p99_ms``, ``elapsed_s``). Returning ``False`` stops the run. ``output=`` appends
+    the fields to a .nc or .csv file as they come (.npz at the end); ``serve="127.0.0.1:8080"``
+    serves the live view (another address needs ``allow_remote=True``). Ctrl-C stops the run.
+
+    Returns the summary: the counts, the latency percentiles (``latency_p50_ms``,
+    ``latency_p99_ms``, ``latency_max_ms``, from a slab's end to its field), ``stopped`` and
+    the reader's ``warnings``.
+    """
+    callback = None
+    if on_field is not None:
+        def callback(raw: Mapping[str, Any], stats: Dict[str, Any]) -> Any:
+            return on_field(_result(raw, decode_times), stats)
+    return _ebiv.live(
+        os.fspath(source), method, follow=follow, idle=idle, replay=replay, speed=speed,
+        queue=queue, serve=serve, allow_remote=allow_remote, on_field=callback, **settings,
+    )
 
 
 def piv(*images: Any, progress: Progress = None, decode_times: bool = True, **settings: Any) -> Any:

@@ -182,6 +182,23 @@ def examples() -> List[Tuple[str, str]]:
 #: ``u``, ``v`` needed; the others NaN when absent).
 _TrackColumns = Union[_StrPath, Dict[str, ArrayLike]]
 
+def live(
+    source: str,
+    method: Optional[str] = None,
+    *,
+    follow: bool = False,
+    idle: str = "5s",
+    replay: bool = False,
+    speed: float = 1.0,
+    queue: int = 2,
+    serve: Optional[str] = None,
+    allow_remote: bool = False,
+    on_field: Optional[Callable[[_RawDataset, Dict[str, Any]], Any]] = None,
+    **settings: Any,
+) -> Dict[str, Any]:
+    """``ebiv live`` with each field handed to ``on_field``; returns the summary."""
+    ...
+
 def track(
     source: _Source,
     time: Union[str, Tuple[Optional[_Duration], Optional[_Duration]], None] = None,

@@ -292,3 +292,57 @@ fn encode(values: &Values, padded: bool, out: &mut Vec<u8>) {
     }
     out.resize(start + encoded_len(values, padded), 0);
 }
+
+/// The outputs of a live run, as one sink: the file of a [`LiveWriter`] and the page of a
+/// [`LiveView`](super::LiveView), either optional. The command line and Python wrap it.
+pub struct LiveOutputs {
+    writer: Option<LiveWriter>,
+    view: Option<super::LiveView>,
+    start: Option<LiveStart>,
+}
+
+impl LiveOutputs {
+    /// Outputs to `writer` and `view`.
+    pub fn new(writer: Option<LiveWriter>, view: Option<super::LiveView>) -> Self {
+        LiveOutputs {
+            writer,
+            view,
+            start: None,
+        }
+    }
+
+    /// The run's start, once told.
+    pub fn start(&self) -> Option<&LiveStart> {
+        self.start.as_ref()
+    }
+
+    /// Finish the file (an NPZ is written now); the page stops being served.
+    pub fn finish(self) -> Result<()> {
+        self.writer.map(LiveWriter::finish).transpose()?;
+        Ok(())
+    }
+}
+
+impl crate::live::LiveSink for LiveOutputs {
+    fn started(&mut self, start: &LiveStart) -> Result<()> {
+        if let Some(view) = &self.view {
+            view.started(start);
+        }
+        self.start = Some(start.clone());
+        Ok(())
+    }
+
+    fn field(&mut self, f: &crate::live::LiveField) -> Result<()> {
+        let start = self
+            .start
+            .as_ref()
+            .ok_or_else(|| Error::parameter("live", "a field before the run started"))?;
+        if let Some(writer) = &mut self.writer {
+            writer.append(start, f.t0_us, f.field, f.dropped_before)?;
+        }
+        if let Some(view) = &self.view {
+            view.publish(start, f);
+        }
+        Ok(())
+    }
+}

@@ -25,7 +25,7 @@ mod tracks;
 mod vtk;
 
 pub use self::csv::{csv_header, write_field_csv, CSV_HEADER};
-pub use self::live::LiveWriter;
+pub use self::live::{LiveOutputs, LiveWriter};
 pub use self::live_view::{LiveView, LIVE_VIEW_INTERVAL};
 pub use self::netcdf::{
     netcdf_dataset, write_dataset_netcdf, write_field_netcdf, Attribute, Dataset, Values, Variable,

@@ -273,13 +273,29 @@ impl BatchSource for LiveBatches {
         } else if !self.read(out)? {
             return Ok(false);
         }
-        // A replay hands a batch over when its last event has been "recorded".
-        if let Some(&t) = out.t.last() {
-            self.wait_until(t);
+        if let (Some((speed, ..)), Some(&first)) = (self.clock, out.t.first()) {
+            // A replay hands events over as they are "recorded": in pieces of at most
+            // REPLAY_PIECE of wall-clock time, each when its last event is due.
+            let span = (REPLAY_PIECE.as_secs_f64() * 1e6 * speed).max(1.0) as i64;
+            let cut = out.t.partition_point(|&t| t <= first.saturating_add(span));
+            if cut < out.len() {
+                let mut rest = EventBuffer::new();
+                for i in cut..out.len() {
+                    rest.push(out.t[i], out.x[i], out.y[i], out.p[i]);
+                }
+                out.truncate(cut);
+                self.pending = Some(rest);
+            }
+            if let Some(&t) = out.t.last() {
+                self.wait_until(t);
+            }
         }
         Ok(true)
     }
 }
+
+/// Wall-clock time of events a replay hands over at once.
+const REPLAY_PIECE: Duration = Duration::from_millis(1);
 
 /// The reading thread: cut the stream into the slabs of the field times and queue them.
 /// Returns the reader's report and whether a stop request ended it.
