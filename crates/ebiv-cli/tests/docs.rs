@@ -8,7 +8,7 @@ use std::path::PathBuf;
 
 /// Where commands are described: the commands, the page, and the heading that opens their
 /// section (the section runs to the next heading of the same level), or the whole page.
-const PAGES: [(&[&str], &str, Option<&str>); 12] = [
+const PAGES: [(&[&str], &str, Option<&str>); 13] = [
     (&["info"], "commands.md", Some("## `ebiv info")),
     (&["index"], "commands.md", Some("## `ebiv index")),
     (&["convert"], "commands.md", Some("## `ebiv convert")),
@@ -20,6 +20,8 @@ const PAGES: [(&[&str], &str, Option<&str>); 12] = [
     (&["simulate"], "simulate.md", None),
     (&["study"], "study.md", None),
     (&["track"], "tracking.md", Some("## Options")),
+    // `ebiv live` also takes every setting of `ebiv process` (documented in process.md).
+    (&["live"], "live.md", Some("## Options")),
     (
         &[
             "bench decode",
@@ -155,6 +157,7 @@ fn help_and_reference_pages_name_the_same_options() {
             ));
         }
     }
+    let process_settings = help_options(&["process"]);
     for (commands, page, heading) in PAGES {
         let help: BTreeSet<String> = commands
             .iter()
@@ -165,6 +168,7 @@ fn help_and_reference_pages_name_the_same_options() {
         let own: BTreeSet<&String> = help
             .iter()
             .filter(|o| !global.contains(*o) && !reading.contains(*o))
+            .filter(|o| page != "live.md" || !process_settings.contains(*o))
             .collect();
         for option in own {
             if !docs.contains(option) {
