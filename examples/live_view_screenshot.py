@@ -32,7 +32,7 @@ def main(recording: str, png: str) -> None:
     options = webdriver.ChromeOptions()
     options.binary_location = shutil.which("chromium") or shutil.which("chromium-browser")
     for flag in ["--headless=new", "--no-sandbox", "--disable-gpu", "--no-first-run",
-                 "--disable-background-networking", "--window-size=1500,860",
+                 "--disable-background-networking", "--window-size=1300,860",
                  "--force-device-scale-factor=1"]:
         options.add_argument(flag)
     browser = webdriver.Chrome(options=options,

@@ -108,8 +108,8 @@ fn bad_arguments_fail_before_any_work() {
             &["live", "-", "--follow"],
             "--follow and --replay take a file",
         ),
-        (&["live", &rec, "--serve", "0.0.0.0:0"], "--allow-remote"),
-        (&["live", &rec, "--serve", "nonsense"], "is not an address"),
+        (&["live", &rec, "--serve=0.0.0.0:0"], "--allow-remote"),
+        (&["live", &rec, "--serve=nonsense"], "is not an address"),
         (&["live", &rec, "--replay", "--speed", "0"], "speed"),
         (
             &["live", &rec, "--method", "piv"],
@@ -123,4 +123,30 @@ fn bad_arguments_fail_before_any_work() {
         assert!(!o.status.success(), "{args:?}");
         assert!(err.contains(expected), "{args:?}: {err}");
     }
+}
+
+#[test]
+fn an_input_shorter_than_one_field_is_an_error() {
+    let dir = tempfile::tempdir().unwrap();
+    let rec = recording(dir.path());
+    let out = dir.path().join("none.csv");
+    let o = ebiv(&[
+        "live",
+        &rec,
+        "--slab",
+        "10ms",
+        "--time",
+        "500ms::5ms",
+        "-o",
+        out.to_str().unwrap(),
+    ]);
+    assert!(!o.status.success());
+    assert!(
+        String::from_utf8_lossy(&o.stderr).contains("no field"),
+        "{}",
+        String::from_utf8_lossy(&o.stderr)
+    );
+    assert!(!out.exists());
+    let o = ebiv(&["live", &rec, "--time", "30ms:10ms:5ms"]);
+    assert!(String::from_utf8_lossy(&o.stderr).contains("before START"));
 }

@@ -19,8 +19,8 @@ use std::time::Duration;
 /// Run `ebiv live` on `source` (a path, or `"-"` for standard input): `follow` a growing
 /// file (ending after `idle` without growth), `replay` a finished one at `speed`, or read it
 /// as fast as the fields are computed. `on_field(dataset, stats)` is called with every field
-/// (the dict structure of `process`, one time) and the run's counts; returning `False` stops
-/// the run. `output=` appends the fields to a file, `serve=` serves the live view. Returns
+/// (the dict structure of `process`, one time) and the run's counts; a false return value
+/// (not `None`) stops the run. `output=` appends the fields to a file, `serve=` serves the live view. Returns
 /// the summary as a dict.
 #[pyfunction]
 #[pyo3(signature = (source, method=None, *, follow=false, idle="5s", replay=false, speed=1.0, queue=ebiv::live::DEFAULT_QUEUE, serve=None, allow_remote=false, on_field=None, **settings))]
@@ -75,7 +75,7 @@ pub fn live<'py>(
         None => None,
     };
     let raised: Mutex<Option<PyErr>> = Mutex::new(None);
-    let summary = watched(py, None, |watch| {
+    let outcome = watched(py, None, |watch| {
         let stop_flag = watch.stop_flag();
         let stopped_by_callback = Arc::new(AtomicBool::new(false));
         let stop = {
@@ -95,10 +95,12 @@ pub fn live<'py>(
         let summary = summary?;
         finished?;
         Ok(summary)
-    })?;
+    });
+    // The callback's own exception comes first: it stopped the run.
     if let Some(e) = raised.into_inner().unwrap_or_else(|p| p.into_inner()) {
         return Err(e);
     }
+    let summary = outcome?;
     for warning in &summary.report.warnings {
         warn(py, warning)?;
     }
@@ -180,10 +182,8 @@ impl LiveSink for Callback<'_> {
             let stats = pythonize_stats(py, &f.stats, f.dropped_before)?;
             let answer = callback.call1(py, (dataset, stats))?;
             let answer = answer.bind(py);
-            // Only `False` stops; `None` and anything else go on.
-            let is_false =
-                answer.is_instance_of::<pyo3::types::PyBool>() && !answer.extract::<bool>()?;
-            Ok(!is_false)
+            // A false value stops (`False`, NumPy's `False_`, 0); `None` goes on.
+            Ok(answer.is_none() || answer.is_truthy()?)
         });
         match outcome {
             Ok(true) => {}

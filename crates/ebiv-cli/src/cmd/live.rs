@@ -25,7 +25,8 @@ use std::time::{Duration, Instant};
 /// setting are those of `ebiv process` (flags and `--config`); a field is computed every slab
 /// (or every STEP of `--time ::STEP`). When the machine cannot keep up with a live input, whole
 /// fields are dropped, never events of a field, and the output says so (`fields_dropped`).
-/// Ctrl-C stops the run; the output file is then complete up to the last field.
+/// Ctrl-C stops the run after the field being evaluated; the output file is then complete
+/// up to that field.
 #[derive(Debug, Args)]
 pub struct LiveArgs {
     /// Settings file (TOML, see `ebiv init`); flags override its keys.
@@ -43,12 +44,19 @@ pub struct LiveArgs {
     /// With --replay: speed relative to the recording's own rate.
     #[arg(long, value_name = "X", default_value_t = 1.0)]
     pub speed: f64,
-    /// Slabs that may wait for the estimator; one more arriving is dropped.
+    /// Slabs that may wait for the estimator; when one more arrives from a live input, the
+    /// oldest is dropped.
     #[arg(long, value_name = "N", default_value_t = ebiv::live::DEFAULT_QUEUE)]
     pub queue: usize,
-    /// Serve the live view, a web page updated as fields arrive, at ADDR (default
-    /// 127.0.0.1:8080; port 0 picks a free one).
-    #[arg(long, value_name = "ADDR", num_args = 0..=1, default_missing_value = "127.0.0.1:8080")]
+    /// Serve the live view, a web page updated as fields arrive, at 127.0.0.1:8080, or at
+    /// ADDR with --serve=ADDR (port 0 picks a free one).
+    #[arg(
+        long,
+        value_name = "ADDR",
+        num_args = 0..=1,
+        require_equals = true,
+        default_missing_value = "127.0.0.1:8080"
+    )]
     pub serve: Option<String>,
     /// Allow --serve on an address other than loopback: anyone who can reach it sees the
     /// page, without a password.
@@ -127,12 +135,15 @@ pub fn run(args: &LiveArgs) -> Result<(), Error> {
     let finished = sink.outputs.finish();
     eprintln!();
     let summary = summary?;
-    finished?;
-    report(&summary, output.as_deref());
+    let wrote = finished?;
+    report(&summary, output.as_deref().filter(|_| wrote));
     if let Some(path) = &args.summary {
         let text = serde_json::to_string_pretty(&summary).expect("a summary serialises");
         std::fs::write(path, text + "\n").map_err(|e| Error::io(path, e))?;
     }
+    // Ended by Ctrl-C or SIGTERM: the outputs are complete; end by that signal, as shells
+    // expect of an interrupted command.
+    crate::interrupt::resend_caught_signal();
     Ok(())
 }
 

@@ -262,7 +262,7 @@ def live(
     ``on_field(dataset, stats)`` is called with every field as it is ready: a dataset of one
     time, as :func:`process` returns, and a dict of the run's counts (``events``, ``fields``,
     ``dropped``, ``dropped_before``, ``event_rate``, ``field_rate``, ``latency_ms``,
-    ``latency_p99_ms``, ``elapsed_s``). Returning ``False`` stops the run. ``output=`` appends
+    ``latency_p99_ms``, ``elapsed_s``). A false return value (not ``None``) stops the run. ``output=`` appends
     the fields to a .nc or .csv file as they come (.npz at the end); ``serve="127.0.0.1:8080"``
     serves the live view (another address needs ``allow_remote=True``). Ctrl-C stops the run.
 

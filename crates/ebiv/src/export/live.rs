@@ -14,7 +14,9 @@
 //! other programs can read them while they grow.
 
 use super::csv::{csv_header, write_csv_row};
-use super::netcdf::{define_dataset, nc_err, netcdf_dataset, Attribute, Dataset, Values, Variable};
+use super::netcdf::{
+    define_dataset, nc_err, netcdf_dataset, write_variable, Attribute, Dataset, Values, Variable,
+};
 use super::{field_extension, write_field_npz, Physical};
 use crate::error::{Error, Result};
 use crate::field::{FieldSeries, VectorField};
@@ -73,6 +75,11 @@ impl LiveWriter {
     /// The output file.
     pub fn path(&self) -> &Path {
         &self.path
+    }
+
+    /// Whether a field was appended (the file exists, or an NPZ will be written).
+    pub fn has_fields(&self) -> bool {
+        !matches!(self.format, Format::Pending)
     }
 
     /// Append the field at `t0_us`, after `dropped_before` dropped ones.
@@ -174,13 +181,7 @@ impl NetCdfAppender {
             let mut w = FileWriter::open(path).map_err(werr)?;
             w.set_def(&ds, Version::Offset64Bit, 0).map_err(werr)?;
             for var in dataset.variables.iter().filter(|v| !is_record(v)) {
-                match &var.values {
-                    Values::F64(v) => w.write_var_f64(&var.name, v),
-                    Values::F32(v) => w.write_var_f32(&var.name, v),
-                    Values::I16(v) => w.write_var_i16(&var.name, v),
-                    Values::I32(v) => w.write_var_i32(&var.name, v),
-                }
-                .map_err(werr)?;
+                write_variable(&mut w, var).map_err(werr)?;
             }
             w.close().map_err(werr)?;
         }
@@ -234,9 +235,11 @@ impl NetCdfAppender {
         let offset = self.records_start + u64::from(self.records) * self.record_size;
         self.file.seek(SeekFrom::Start(offset)).map_err(io)?;
         self.file.write_all(&bytes).map_err(io)?;
+        // `numrecs` is a non-negative 32-bit integer (all ones means "streaming").
         self.records = self
             .records
             .checked_add(1)
+            .filter(|&n| n <= i32::MAX as u32)
             .ok_or_else(|| nc_err(&self.path, "more records than NetCDF-3 counts"))?;
         // `numrecs` follows the 4-byte magic number.
         self.file.seek(SeekFrom::Start(4)).map_err(io)?;
@@ -316,10 +319,12 @@ impl LiveOutputs {
         self.start.as_ref()
     }
 
-    /// Finish the file (an NPZ is written now); the page stops being served.
-    pub fn finish(self) -> Result<()> {
+    /// Finish the file (an NPZ is written now); the page stops being served. Whether a file
+    /// was written (not without a field).
+    pub fn finish(self) -> Result<bool> {
+        let wrote = self.writer.as_ref().is_some_and(LiveWriter::has_fields);
         self.writer.map(LiveWriter::finish).transpose()?;
-        Ok(())
+        Ok(wrote)
     }
 }
 

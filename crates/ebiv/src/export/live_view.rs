@@ -14,7 +14,7 @@ use crate::live::{LiveField, LiveStart};
 use crate::render::time_coded_image;
 use std::io::{BufRead, BufReader, Write};
 use std::net::{SocketAddr, TcpListener, TcpStream};
-use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
 use std::sync::{Arc, Condvar, Mutex};
 use std::thread::JoinHandle;
 use std::time::Duration;
@@ -42,7 +42,15 @@ struct Shared {
     state: Mutex<ViewState>,
     changed: Condvar,
     closing: AtomicBool,
+    /// Connections being served.
+    connections: AtomicUsize,
 }
+
+/// Most connections served at once (each page keeps one open for its events).
+const MAX_CONNECTIONS: usize = 32;
+
+/// How long a write to a page may block before the connection is given up.
+const WRITE_TIMEOUT: Duration = Duration::from_secs(10);
 
 #[derive(Default)]
 struct ViewState {
@@ -182,11 +190,28 @@ impl Drop for LiveView {
 fn accept(listener: TcpListener, shared: Arc<Shared>) {
     while !shared.closing.load(Ordering::SeqCst) {
         match listener.accept() {
-            Ok((stream, _)) => {
-                let shared = shared.clone();
-                std::thread::spawn(move || {
-                    let _ = serve(stream, &shared);
-                });
+            Ok((mut stream, _)) => {
+                if shared.connections.load(Ordering::SeqCst) >= MAX_CONNECTIONS {
+                    let _ = stream.set_nonblocking(false);
+                    let _ = respond(
+                        &mut stream,
+                        "503 Service Unavailable",
+                        "text/plain",
+                        b"too many connections\n",
+                    );
+                    continue;
+                }
+                shared.connections.fetch_add(1, Ordering::SeqCst);
+                let worker = shared.clone();
+                let spawned = std::thread::Builder::new()
+                    .name("ebiv-live-view".into())
+                    .spawn(move || {
+                        let _ = serve(stream, &worker);
+                        worker.connections.fetch_sub(1, Ordering::SeqCst);
+                    });
+                if spawned.is_err() {
+                    shared.connections.fetch_sub(1, Ordering::SeqCst);
+                }
             }
             Err(e) if e.kind() == std::io::ErrorKind::WouldBlock => {
                 std::thread::sleep(Duration::from_millis(20));
@@ -200,6 +225,7 @@ fn accept(listener: TcpListener, shared: Arc<Shared>) {
 fn serve(stream: TcpStream, shared: &Shared) -> std::io::Result<()> {
     stream.set_nonblocking(false)?;
     stream.set_read_timeout(Some(Duration::from_secs(5)))?;
+    stream.set_write_timeout(Some(WRITE_TIMEOUT))?;
     let mut reader = BufReader::new(std::io::Read::take(stream.try_clone()?, MAX_REQUEST_HEAD));
     let mut request_line = String::new();
     reader.read_line(&mut request_line)?;

@@ -78,13 +78,7 @@ pub fn write_dataset_netcdf(dataset: &Dataset, path: &Path) -> Result<()> {
         let mut w = FileWriter::open(&temp).map_err(werr)?;
         w.set_def(&ds, Version::Offset64Bit, 0).map_err(werr)?;
         for var in &dataset.variables {
-            match &var.values {
-                Values::F64(v) => w.write_var_f64(&var.name, v),
-                Values::F32(v) => w.write_var_f32(&var.name, v),
-                Values::I16(v) => w.write_var_i16(&var.name, v),
-                Values::I32(v) => w.write_var_i32(&var.name, v),
-            }
-            .map_err(werr)?;
+            write_variable(&mut w, var).map_err(werr)?;
         }
         w.close().map_err(werr)
     })();
@@ -93,6 +87,19 @@ pub fn write_dataset_netcdf(dataset: &Dataset, path: &Path) -> Result<()> {
         return Err(e);
     }
     std::fs::rename(&temp, path).map_err(|e| Error::io(path, e))
+}
+
+/// Write all the values of `var` (defined in `w`'s header).
+pub(crate) fn write_variable(
+    w: &mut FileWriter<'_>,
+    var: &Variable,
+) -> std::result::Result<(), netcdf3::error::WriteError> {
+    match &var.values {
+        Values::F64(v) => w.write_var_f64(&var.name, v),
+        Values::F32(v) => w.write_var_f32(&var.name, v),
+        Values::I16(v) => w.write_var_i16(&var.name, v),
+        Values::I32(v) => w.write_var_i32(&var.name, v),
+    }
 }
 
 /// The NetCDF-3 definition (dimensions, variables, attributes) of `dataset`; with

@@ -81,13 +81,21 @@ impl<D: WordDecoder> WordStreamReader<D> {
         }
     }
 
-    /// Fill the buffer after the carried bytes; returns how many bytes are now in it.
+    /// Fill the buffer after the carried bytes; returns how many bytes are now in it. A short
+    /// read that completes a word ends the filling: a pipe or a file being written hands over
+    /// what it has, and the words already there are decoded without waiting for more.
     fn fill(&mut self) -> Result<usize> {
         let mut filled = self.carry;
         while filled < self.buf.len() {
+            let wanted = self.buf.len() - filled;
             match self.source.read(&mut self.buf[filled..]) {
                 Ok(0) => break,
-                Ok(n) => filled += n,
+                Ok(n) => {
+                    filled += n;
+                    if n < wanted && filled >= D::WORD_BYTES {
+                        break;
+                    }
+                }
                 Err(e) if e.kind() == std::io::ErrorKind::Interrupted => {}
                 Err(e) => return Err(e.into()),
             }

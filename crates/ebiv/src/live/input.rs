@@ -7,6 +7,7 @@
 use std::fs::File;
 use std::io::{self, Read, Seek, SeekFrom};
 use std::path::{Path, PathBuf};
+use std::sync::mpsc::{sync_channel, Receiver, RecvTimeoutError};
 use std::time::{Duration, Instant};
 
 /// How often a followed file is polled for new data.
@@ -88,25 +89,56 @@ pub const PIPE_REWIND_BYTES: usize = 1 << 20;
 
 /// A stream that cannot seek (a pipe, standard input), made seekable within its first
 /// [`PIPE_REWIND_BYTES`]: the readers rewind once after sniffing the format and seek to the
-/// end of the header, and read straight on from there.
-pub struct PipeInput<R: Read> {
-    inner: R,
+/// end of the header, and read straight on from there. The stream is read on a thread of its
+/// own, so that a stop request ends a wait for data that may never come.
+pub struct PipeInput {
+    chunks: Receiver<io::Result<Vec<u8>>>,
+    /// The chunk being handed out, and how much of it has been.
+    chunk: Vec<u8>,
+    used: usize,
     /// The first bytes of the stream, while the position stays within them.
     head: Vec<u8>,
     /// Whether `head` still holds every byte read so far.
     head_complete: bool,
     /// Position in the stream.
     position: u64,
-    /// Bytes taken from `inner`.
+    /// Bytes taken from the stream.
     taken: u64,
     stop: StopCheck,
 }
 
-impl<R: Read> PipeInput<R> {
-    /// Wrap `inner`; `stop` ends the stream early (a read then reports its end).
-    pub fn new(inner: R, stop: StopCheck) -> Self {
+/// Bytes the thread reading a pipe reads at once.
+const PIPE_CHUNK: usize = 1 << 16;
+
+impl PipeInput {
+    /// Read `inner` on a thread of its own; `stop` ends the stream early (a read then
+    /// reports its end).
+    pub fn new<R: Read + Send + 'static>(mut inner: R, stop: StopCheck) -> Self {
+        let (send, chunks) = sync_channel::<io::Result<Vec<u8>>>(8);
+        // The thread ends at the end of the stream, or when the input is dropped (its next
+        // send fails); a pipe that never ends keeps it waiting in `read`, harmlessly.
+        let _ = std::thread::Builder::new()
+            .name("ebiv-pipe".into())
+            .spawn(move || loop {
+                let mut chunk = vec![0u8; PIPE_CHUNK];
+                let result = match inner.read(&mut chunk) {
+                    Ok(0) => return,
+                    Ok(n) => {
+                        chunk.truncate(n);
+                        Ok(chunk)
+                    }
+                    Err(e) if e.kind() == io::ErrorKind::Interrupted => continue,
+                    Err(e) => Err(e),
+                };
+                let failed = result.is_err();
+                if send.send(result).is_err() || failed {
+                    return;
+                }
+            });
         PipeInput {
-            inner,
+            chunks,
+            chunk: Vec::new(),
+            used: 0,
             head: Vec::new(),
             head_complete: true,
             position: 0,
@@ -114,9 +146,33 @@ impl<R: Read> PipeInput<R> {
             stop,
         }
     }
+
+    /// Bytes from the stream into `buf`: waits for a chunk, checking for a stop request.
+    fn take(&mut self, buf: &mut [u8]) -> io::Result<usize> {
+        while self.used == self.chunk.len() {
+            if (self.stop)() {
+                return Ok(0);
+            }
+            match self.chunks.recv_timeout(POLL_PIPE) {
+                Ok(chunk) => {
+                    self.chunk = chunk?;
+                    self.used = 0;
+                }
+                Err(RecvTimeoutError::Timeout) => {}
+                Err(RecvTimeoutError::Disconnected) => return Ok(0),
+            }
+        }
+        let n = buf.len().min(self.chunk.len() - self.used);
+        buf[..n].copy_from_slice(&self.chunk[self.used..self.used + n]);
+        self.used += n;
+        Ok(n)
+    }
 }
 
-impl<R: Read> Read for PipeInput<R> {
+/// How often a wait for a pipe's data looks for a stop request.
+const POLL_PIPE: Duration = Duration::from_millis(20);
+
+impl Read for PipeInput {
     fn read(&mut self, buf: &mut [u8]) -> io::Result<usize> {
         if self.position < self.taken {
             // Re-reading kept bytes after a seek back.
@@ -126,19 +182,7 @@ impl<R: Read> Read for PipeInput<R> {
             self.position += n as u64;
             return Ok(n);
         }
-        if (self.stop)() {
-            return Ok(0);
-        }
-        let n = loop {
-            match self.inner.read(buf) {
-                Err(e) if e.kind() == io::ErrorKind::Interrupted => {
-                    if (self.stop)() {
-                        return Ok(0);
-                    }
-                }
-                other => break other?,
-            }
-        };
+        let n = self.take(buf)?;
         if self.head_complete {
             if self.head.len() + n <= PIPE_REWIND_BYTES {
                 self.head.extend_from_slice(&buf[..n]);
@@ -153,7 +197,7 @@ impl<R: Read> Read for PipeInput<R> {
     }
 }
 
-impl<R: Read> Seek for PipeInput<R> {
+impl Seek for PipeInput {
     /// Seeks back within the kept start of the stream, or forward by reading and
     /// discarding; anything else is an error.
     fn seek(&mut self, pos: SeekFrom) -> io::Result<u64> {
@@ -201,7 +245,7 @@ mod tests {
     #[test]
     fn a_pipe_rewinds_within_its_start_and_reads_on() {
         let data: Vec<u8> = (0..=255u8).cycle().take(10_000).collect();
-        let mut pipe = PipeInput::new(&data[..], never());
+        let mut pipe = PipeInput::new(std::io::Cursor::new(data.clone()), never());
         let mut head = [0u8; 100];
         pipe.read_exact(&mut head).unwrap();
         assert_eq!(pipe.seek(SeekFrom::Start(0)).unwrap(), 0);
@@ -209,11 +253,19 @@ mod tests {
         pipe.read_to_end(&mut all).unwrap();
         assert_eq!(all, data);
         assert!(pipe.seek(SeekFrom::End(0)).is_err());
-        let mut pipe = PipeInput::new(&data[..], never());
+        let mut pipe = PipeInput::new(std::io::Cursor::new(data.clone()), never());
         assert_eq!(pipe.seek(SeekFrom::Start(5000)).unwrap(), 5000);
         let mut rest = Vec::new();
         pipe.read_to_end(&mut rest).unwrap();
         assert_eq!(rest, data[5000..]);
+        // A stop request ends a wait for data that does not come.
+        let (_keep_open, silent) = std::os::unix::net::UnixStream::pair().unwrap();
+        let begun = std::time::Instant::now();
+        let stop: StopCheck = Arc::new(move || begun.elapsed() > Duration::from_millis(200));
+        let mut waiting = PipeInput::new(silent, stop);
+        let mut all = Vec::new();
+        waiting.read_to_end(&mut all).unwrap();
+        assert!(all.is_empty() && begun.elapsed() < Duration::from_secs(5));
     }
 
     #[test]

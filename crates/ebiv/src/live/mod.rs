@@ -9,15 +9,17 @@
 //! Two threads form the pipeline: one decodes, paces a replay and cuts the stream into
 //! slabs ([`crate::volume::Slab`]); the other evaluates them (its windows in parallel) and
 //! passes the fields on. Between them a queue of at most `queue` slabs bounds memory and
-//! latency. When the estimator falls behind a live input, a slab arriving at a full queue is
-//! dropped whole, never some of its events, and the next field delivered says how many were
-//! dropped before it; a finished recording read as fast as possible waits instead.
+//! latency. When the estimator falls behind a live input, the oldest waiting slab is dropped
+//! whole to make room for the newest (never some of a slab's events), and the next field
+//! delivered says how many were dropped before it; a finished recording read as fast as
+//! possible waits for room instead.
 //!
 //! Latency is the time from a slab's end (replay: the moment the replay clock passes it;
 //! otherwise: when its last event was read) to its field being ready.
 
 pub mod input;
 mod pipeline;
+mod queue;
 
 pub use input::{GrowingFile, PipeInput, StopCheck};
 pub use pipeline::run_live;

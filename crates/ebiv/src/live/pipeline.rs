@@ -1,6 +1,7 @@
 //! The two threads of a live run: read and cut into slabs, then evaluate and deliver.
 
 use super::input::{GrowingFile, PipeInput, StopCheck};
+use super::queue::SlabQueue;
 use super::{LiveField, LiveInput, LiveOptions, LiveSink, LiveStart, LiveStats, LiveSummary};
 use crate::error::{Error, Result};
 use crate::estimate::Estimator;
@@ -10,8 +11,8 @@ use crate::process::{process_slab, BatchSource, ProcessParams, SlidingEvents};
 use crate::settings::{EstimatorTask, Resolved};
 use crate::volume::Slab;
 use std::collections::VecDeque;
-use std::sync::atomic::{AtomicU64, Ordering};
-use std::sync::mpsc::{self, Receiver, SyncSender, TrySendError};
+use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
+use std::sync::mpsc::{self, Receiver};
 use std::sync::Arc;
 use std::time::{Duration, Instant};
 
@@ -61,6 +62,22 @@ impl EstimatorTask for LiveTask<'_> {
             sink,
         } = self;
         let name = options.input.name();
+        if let Some(t) = run.time {
+            if let (Some(a), Some(b)) = (t.start, t.end) {
+                if b < a {
+                    return Err(Error::parameter(
+                        "time",
+                        format!("END ({b} µs) is before START ({a} µs): no field"),
+                    ));
+                }
+            }
+        }
+        // The reader also stops when the evaluation fails.
+        let failed = Arc::new(AtomicBool::new(false));
+        let stop: StopCheck = {
+            let (failed, requested) = (failed.clone(), stop.clone());
+            Arc::new(move || failed.load(Ordering::Relaxed) || requested())
+        };
         let reader = open_input(&options.input, options, stop.clone())?;
         let geometry = reader
             .metadata()
@@ -108,28 +125,27 @@ impl EstimatorTask for LiveTask<'_> {
             },
         };
         let counted = Arc::new(AtomicU64::new(0));
-        let (jobs_tx, jobs_rx) = mpsc::sync_channel::<Job>(plan.queue);
-        let (drops_tx, drops_rx) = mpsc::channel::<i64>();
+        let queue = SlabQueue::<Job>::new(plan.queue, plan.drops);
         let (origin_tx, origin_rx) = mpsc::channel::<(i64, Instant)>();
         std::thread::scope(|scope| {
             let reader_counted = counted.clone();
             let reader_stop = stop.clone();
             let plan = &plan;
+            let queue = &queue;
             let cutting = scope.spawn(move || {
-                cut_slabs(
-                    reader,
-                    plan,
-                    reader_stop,
-                    reader_counted,
-                    jobs_tx,
-                    drops_tx,
-                    origin_tx,
-                )
+                let cut = cut_slabs(reader, plan, reader_stop, reader_counted, queue, origin_tx);
+                queue.close();
+                cut
             });
             let delivered = deliver(
-                estimator, &grids, &params, jobs_rx, &drops_rx, &origin_rx, &counted, &mut start,
-                run, sink,
+                estimator, &grids, &params, queue, &origin_rx, &counted, &mut start, run, sink,
+                &stop,
             );
+            if delivered.is_err() {
+                // The reader stops at its next push or read.
+                failed.store(true, Ordering::Relaxed);
+                queue.abandon();
+            }
             let cut = cutting
                 .join()
                 .unwrap_or_else(|_| Err(Error::parameter("live", "the reading thread failed")));
@@ -137,11 +153,26 @@ impl EstimatorTask for LiveTask<'_> {
                 (Err(e), _) | (Ok(_), Err(e)) => return Err(e),
                 (Ok(summary), Ok((report, stopped))) => (summary, report, stopped),
             };
-            // Fields dropped after the last one delivered.
-            summary.stats.dropped += drops_rx.try_iter().count() as u64;
-            summary.stats.events = counted.load(Ordering::Relaxed);
+            // Totals and rates over the whole run, from its first event to its end.
+            let t = &mut summary.stats;
+            t.events = counted.load(Ordering::Relaxed);
+            if t.elapsed_s > 0.0 {
+                t.event_rate = t.events as f64 / t.elapsed_s;
+                t.field_rate = t.fields as f64 / t.elapsed_s;
+            }
             summary.report = report;
             summary.stopped = stopped || stop();
+            let t = &summary.stats;
+            if t.fields == 0 && !summary.stopped {
+                return Err(Error::empty(
+                    name,
+                    format!(
+                        "no field: the input ended before the first field's slab was complete ({} after the first event, or --time's START){}",
+                        crate::units::format_us(plan.planning.0 + plan.planning.1),
+                        if t.events == 0 { "; it held no event" } else { "" }
+                    ),
+                ));
+            }
             Ok(summary)
         })
     }
@@ -304,8 +335,7 @@ fn cut_slabs(
     plan: &Plan,
     stop: StopCheck,
     counted: Arc<AtomicU64>,
-    jobs: SyncSender<Job>,
-    drops: mpsc::Sender<i64>,
+    queue: &SlabQueue<Job>,
     origin: mpsc::Sender<(i64, Instant)>,
 ) -> Result<(crate::io::DecodeReport, bool)> {
     let mut batches = LiveBatches {
@@ -385,16 +415,7 @@ fn cut_slabs(
             ended,
             events: shown,
         };
-        let sent = if plan.drops {
-            match jobs.try_send(job) {
-                Ok(()) => true,
-                Err(TrySendError::Full(job)) => drops.send(job.t0).is_ok(),
-                Err(TrySendError::Disconnected(_)) => false,
-            }
-        } else {
-            jobs.send(job).is_ok()
-        };
-        if !sent {
+        if !queue.push(job) {
             break;
         }
     }
@@ -418,21 +439,25 @@ fn deliver<E: Estimator>(
     estimator: &E,
     grids: &[crate::grid::Grid],
     params: &ProcessParams,
-    jobs: Receiver<Job>,
-    drops: &Receiver<i64>,
+    queue: &SlabQueue<Job>,
     origin: &Receiver<(i64, Instant)>,
     counted: &AtomicU64,
     start: &mut LiveStart,
     run: &Resolved,
     sink: &mut dyn LiveSink,
+    stop: &StopCheck,
 ) -> Result<LiveSummary> {
     let mut summary = LiveSummary::default();
     let mut latencies: Vec<f64> = Vec::new();
     let mut recent: VecDeque<(Instant, u64, u64)> = VecDeque::new();
     let mut begun: Option<Instant> = None;
-    let mut held_drops: Vec<i64> = Vec::new();
     let mut stats = LiveStats::default();
-    for job in jobs {
+    while let Some((job, dropped_before)) = queue.pop() {
+        // A stop request ends the run after the field being evaluated: the slabs still
+        // queued are not evaluated.
+        if stop() {
+            break;
+        }
         if begun.is_none() {
             let (first, at) = origin.recv().map_err(|_| {
                 Error::parameter("live", "the reading thread ended before the first event")
@@ -442,9 +467,6 @@ fn deliver<E: Estimator>(
             start.description = describe(start, estimator, params);
             sink.started(start)?;
         }
-        held_drops.extend(drops.try_iter());
-        let dropped_before = held_drops.iter().filter(|&&t| t < job.t0).count() as u64;
-        held_drops.retain(|&t| t >= job.t0);
         let result = process_slab(estimator, &job.slab, job.t0, grids, params);
         let latency = job.ended.elapsed().as_secs_f64() * 1e3;
         latencies.push(latency);
@@ -476,12 +498,10 @@ fn deliver<E: Estimator>(
             stats,
         })?;
     }
+    // The run's wall-clock time, from its first event to its end.
+    let begun = begun.or_else(|| origin.try_recv().ok().map(|(_, at)| at));
+    stats.elapsed_s = begun.map_or(0.0, |b| b.elapsed().as_secs_f64());
     summary.stats = stats;
-    summary.stats.dropped += held_drops.len() as u64;
-    if stats.elapsed_s > 0.0 {
-        summary.stats.event_rate = stats.events as f64 / stats.elapsed_s;
-        summary.stats.field_rate = stats.fields as f64 / stats.elapsed_s;
-    }
     summary.latency_p50_ms = percentile(&latencies, 0.5);
     summary.latency_p99_ms = percentile(&latencies, 0.99);
     summary.latency_max_ms = latencies.iter().copied().fold(0.0, f64::max);
