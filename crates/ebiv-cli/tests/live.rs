@@ -103,7 +103,11 @@ fn a_replay_reports_its_latency_in_the_summary() {
 fn bad_arguments_fail_before_any_work() {
     let dir = tempfile::tempdir().unwrap();
     let rec = recording(dir.path());
-    let cases: [(&[&str], &str); 6] = [
+    let cases: [(&[&str], &str); 7] = [
+        (
+            &["live", &rec, "--every", "5ms", "--time", "::5ms"],
+            "give the time between fields once",
+        ),
         (
             &["live", "-", "--follow"],
             "--follow and --replay take a file",

@@ -23,7 +23,7 @@ use std::time::Duration;
 /// (not `None`) stops the run. `output=` appends the fields to a file, `serve=` serves the live view. Returns
 /// the summary as a dict.
 #[pyfunction]
-#[pyo3(signature = (source, method=None, *, follow=false, idle="5s", replay=false, speed=1.0, queue=ebiv::live::DEFAULT_QUEUE, serve=None, allow_remote=false, on_field=None, **settings))]
+#[pyo3(signature = (source, method=None, *, follow=false, idle="5s", replay=false, speed=1.0, every=None, queue=ebiv::live::DEFAULT_QUEUE, serve=None, allow_remote=false, on_field=None, **settings))]
 #[allow(clippy::too_many_arguments)]
 pub fn live<'py>(
     py: Python<'py>,
@@ -33,6 +33,7 @@ pub fn live<'py>(
     idle: &str,
     replay: bool,
     speed: f64,
+    every: Option<&str>,
     queue: usize,
     serve: Option<&str>,
     allow_remote: bool,
@@ -61,6 +62,12 @@ pub fn live<'py>(
         ..read
     };
     options.queue = queue.max(1);
+    options.every_us = every
+        .map(|text| {
+            ebiv::units::parse_us(text)
+                .map_err(|m| PyValueError::new_err(format!("invalid parameter `every`: {m}")))
+        })
+        .transpose()?;
     let view = match serve {
         Some(address) => {
             let address = address.parse().map_err(|_| {

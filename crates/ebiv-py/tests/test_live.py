@@ -63,6 +63,19 @@ def test_live_refuses_bad_arguments(simulated):
         ebiv.live(rec, serve="0.0.0.0:0")
     with pytest.raises(ValueError, match="piv"):
         ebiv.live(rec, method="piv")
+    with pytest.raises(ValueError, match="once"):
+        ebiv.live(rec, every="5ms", time="::5ms")
+
+
+def test_every_is_the_step_of_time(simulated):
+    rec = simulated / "rec.raw"
+    times = {}
+    for name, step in [("every", dict(every="5ms")), ("time", dict(time="::5ms"))]:
+        seen = []
+        ebiv.live(rec, slab="10ms", window=[48, 32], decode_times=False,
+                  on_field=lambda ds, stats: seen.append(int(ds.time.values[0])), **step)
+        times[name] = seen
+    assert times["every"] == times["time"] and len(times["every"]) > 2
 
 
 def _browser():

@@ -22,8 +22,8 @@ use std::time::{Duration, Instant};
 /// INPUT is a recording still being written (`--follow`), `-` for standard input (RAW and
 /// other formats that need no seeking), or a finished recording (`--replay` plays it at its
 /// own rate; without it, it is read as fast as the fields are computed). The method and every
-/// setting are those of `ebiv process` (flags and `--config`); a field is computed every slab
-/// (or every STEP of `--time ::STEP`). When the machine cannot keep up with a live input, whole
+/// setting are those of `ebiv process` (flags and `--config`); a field is computed every slab,
+/// or every `--every`. When the machine cannot keep up with a live input, whole
 /// fields are dropped, never events of a field, and the output says so (`fields_dropped`).
 /// Ctrl-C stops the run after the field being evaluated; the output file is then complete
 /// up to that field.
@@ -44,6 +44,9 @@ pub struct LiveArgs {
     /// With --replay: speed relative to the recording's own rate.
     #[arg(long, value_name = "X", default_value_t = 1.0)]
     pub speed: f64,
+    /// Time between fields (default: one per slab; or the STEP of --time).
+    #[arg(long, value_name = "DUR")]
+    pub every: Option<String>,
     /// Slabs that may wait for the estimator; when one more arrives from a live input, the
     /// oldest is dropped.
     #[arg(long, value_name = "N", default_value_t = ebiv::live::DEFAULT_QUEUE)]
@@ -105,6 +108,11 @@ pub fn run(args: &LiveArgs) -> Result<(), Error> {
         ..read
     };
     options.queue = args.queue.max(1);
+    options.every_us = args
+        .every
+        .as_deref()
+        .map(|text| ebiv::units::parse_us(text).map_err(|m| Error::parameter("every", m)))
+        .transpose()?;
     let view = match &args.serve {
         Some(addr) => {
             let addr: SocketAddr = addr.parse().map_err(|_| {

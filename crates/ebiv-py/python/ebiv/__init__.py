@@ -242,6 +242,7 @@ def live(
     idle: str = "5s",
     replay: bool = False,
     speed: float = 1.0,
+    every: Optional[str] = None,
     queue: int = 2,
     serve: Optional[str] = None,
     allow_remote: bool = False,
@@ -255,7 +256,8 @@ def live(
     end, and end once it has not grown for ``idle``), ``"-"`` for standard input, or a
     finished recording (``replay=True`` plays it at ``speed`` times its own rate; otherwise
     it is read as fast as the fields are computed). ``method`` and ``settings`` are those of
-    :func:`process`; the fields, their times and their slabs are those :func:`process`
+    :func:`process`, and ``every="5ms"`` the time between fields (default: one per slab, or
+    the STEP of ``time``); the fields, their times and their slabs are those :func:`process`
     gives on the finished recording. When the machine cannot keep up with a live input,
     whole fields are dropped (at most ``queue`` slabs wait).
 
@@ -276,7 +278,7 @@ def live(
             return on_field(_result(raw, decode_times), stats)
     return _ebiv.live(
         os.fspath(source), method, follow=follow, idle=idle, replay=replay, speed=speed,
-        queue=queue, serve=serve, allow_remote=allow_remote, on_field=callback, **settings,
+        every=every, queue=queue, serve=serve, allow_remote=allow_remote, on_field=callback, **settings,
     )
 
 

@@ -190,6 +190,7 @@ def live(
     idle: str = "5s",
     replay: bool = False,
     speed: float = 1.0,
+    every: Optional[str] = None,
     queue: int = 2,
     serve: Optional[str] = None,
     allow_remote: bool = False,

@@ -82,6 +82,8 @@ pub struct LiveOptions {
     pub read: ReadOptions,
     /// Slabs that may wait for the estimator (at least 1).
     pub queue: usize,
+    /// Time between fields, µs; `None`: the STEP of the run's `time`, else one per slab.
+    pub every_us: Option<i64>,
     /// Least wall-clock time between two fields that carry their slab's events (for a live
     /// view); `None`: no field carries them.
     pub events_every: Option<Duration>,
@@ -97,6 +99,7 @@ impl LiveOptions {
                 ..ReadOptions::default()
             },
             queue: DEFAULT_QUEUE,
+            every_us: None,
             events_every: None,
         }
     }

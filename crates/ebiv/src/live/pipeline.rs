@@ -95,7 +95,22 @@ impl EstimatorTask for LiveTask<'_> {
         let last = grids.last().expect("grids checked non-empty");
         let mut attributes = crate::process::run_attributes(estimator, &params);
         attributes.push(("source".into(), name.clone()));
-        let step = run.time.map_or(run.slab_us(), |t| t.step);
+        let step = match (options.every_us, run.time) {
+            (Some(_), Some(_)) => {
+                return Err(Error::parameter(
+                    "every",
+                    "give the time between fields once: --every, or the STEP of --time",
+                ))
+            }
+            (Some(every), None) if every <= 0 => {
+                return Err(Error::parameter(
+                    "every",
+                    format!("must be positive, got {every} µs"),
+                ))
+            }
+            (Some(every), None) => every,
+            (None, time) => time.map_or(run.slab_us(), |t| t.step),
+        };
         let mut start = LiveStart {
             source: name.clone(),
             geometry,
