@@ -59,6 +59,9 @@ enum Command {
     Track(Box<cmd::track::TrackArgs>),
     /// Errors of a vector field against the truth, or agreement of two fields, with a report.
     Assess(Box<cmd::assess::AssessArgs>),
+    /// Flow statistics of a field series: mean, RMS, Reynolds stresses and valid samples per
+    /// node, optionally phase-averaged.
+    Stats(cmd::stats::StatsArgs),
     /// Monte-Carlo parameter study: simulate, process and measure a setup over swept
     /// parameters and seeds; tables, plots and a report.
     Study(cmd::study::StudyArgs),
@@ -99,6 +102,7 @@ fn main() -> ExitCode {
         Command::Live(a) => cmd::live::run(a),
         Command::Track(a) => cmd::track::run(a),
         Command::Assess(a) => cmd::assess::run(a),
+        Command::Stats(a) => cmd::stats::run(a),
         Command::Study(a) => cmd::study::run(a),
     };
     match result {

@@ -412,7 +412,10 @@ pub fn simulate<'py>(
 
 /// A field series from a path or a dataset structure ([`dataset_from_py`]), read as
 /// `ebiv assess` and `ebiv convert` read field files.
-fn series_of(field: &Bound<'_, PyAny>, options: &FieldReadOptions) -> PyResult<FieldSeries> {
+pub(crate) fn series_of(
+    field: &Bound<'_, PyAny>,
+    options: &FieldReadOptions,
+) -> PyResult<FieldSeries> {
     if let Ok(path) = field.extract::<PathBuf>() {
         return read_field(&path, options).py_err();
     }
@@ -528,4 +531,55 @@ pub fn setting_names() -> Vec<(String, &'static str, Option<String>, String)> {
 #[pyfunction]
 pub fn examples() -> Vec<(&'static str, &'static str)> {
     EXAMPLES.iter().map(|e| (e.0, e.1)).collect()
+}
+
+/// Flow statistics of a field series (a dataset structure or a field file), as `ebiv stats`
+/// computes them; `output=` also writes the file (.nc or .csv). Returns the dataset
+/// structure of the statistics' NetCDF file.
+#[pyfunction]
+#[pyo3(signature = (field, period=None, phases=8, phase_origin=None, include_replaced=false, mm_per_px=None, output=None))]
+#[allow(clippy::too_many_arguments)]
+pub fn stats<'py>(
+    py: Python<'py>,
+    field: &Bound<'py, PyAny>,
+    period: Option<&Bound<'py, PyAny>>,
+    phases: usize,
+    phase_origin: Option<&Bound<'py, PyAny>>,
+    include_replaced: bool,
+    mm_per_px: Option<f64>,
+    output: Option<PathBuf>,
+) -> PyResult<Bound<'py, PyDict>> {
+    let duration = |name: &str, value: Option<&Bound<'py, PyAny>>| -> PyResult<Option<i64>> {
+        value
+            .filter(|v| !v.is_none())
+            .map(|v| crate::recording::duration_us(name, v))
+            .transpose()
+    };
+    let options = ebiv::statistics::StatsOptions {
+        period_us: duration("period", period)?,
+        phases,
+        phase_origin_us: duration("phase_origin", phase_origin)?,
+        include_replaced,
+    };
+    if let Some(path) = &output {
+        ebiv::export::check_output_path(path).py_err()?;
+    }
+    let read_options = FieldReadOptions {
+        mm_per_px,
+        ..FieldReadOptions::default()
+    };
+    let series = series_of(field, &read_options)?;
+    let statistics = py
+        .detach(|| -> ebiv::Result<_> {
+            let st = ebiv::statistics::flow_statistics(&series, &options)?;
+            if let Some(path) = &output {
+                ebiv::export::write_statistics(&st, &series.attributes, path)?;
+            }
+            Ok(st)
+        })
+        .py_err()?;
+    dataset_to_py(
+        py,
+        ebiv::export::statistics_dataset(&statistics, &series.attributes),
+    )
 }

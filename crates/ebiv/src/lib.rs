@@ -33,6 +33,7 @@ pub mod render;
 pub mod settings;
 pub mod sim;
 mod simd;
+pub mod statistics;
 pub mod stats;
 pub mod study;
 #[cfg(test)]

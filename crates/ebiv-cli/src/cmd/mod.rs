@@ -12,6 +12,7 @@ pub mod live;
 pub mod process;
 pub mod render;
 pub mod simulate;
+pub mod stats;
 pub mod study;
 pub mod track;
 

@@ -45,6 +45,7 @@ __all__ = [
     "process",
     "settings",
     "simulate",
+    "stats",
     "track",
     "track_settings",
     "write",
@@ -368,6 +369,29 @@ def write(field: Any, path: PathLike) -> None:
     """Write a field (a dataset from :func:`process`, or a field file to convert) as
     NetCDF (.nc), CSV, NPZ, Tecplot (.dat) or VTK (.vtk), as ``ebiv process -o`` does."""
     _ebiv.write(_field(field), path)
+
+
+def stats(
+    field: Any,
+    *,
+    period: Union[int, str, None] = None,
+    phases: int = 8,
+    phase_origin: Union[int, str, None] = None,
+    include_replaced: bool = False,
+    mm_per_px: Optional[float] = None,
+    output: Optional[PathLike] = None,
+) -> Any:
+    """Flow statistics of a field series (a dataset from :func:`process`, or a field file),
+    as ``ebiv stats`` computes them: at every node ``u_mean``, ``v_mean``, ``u_rms``,
+    ``v_rms``, the Reynolds stresses ``uu``, ``vv``, ``uv`` and ``count``, the valid vectors
+    averaged. Invalid vectors are left out; replaced ones too unless ``include_replaced``.
+    ``period`` (µs or ``"20ms"``) sorts the fields into ``phases`` bins of the period, from
+    ``phase_origin`` (default: the first field's time), adding the dimension ``phase``.
+    ``output=`` also writes the file (.nc or .csv). Returns an ``xarray.Dataset`` identical
+    to ``xarray.open_dataset`` of the command's .nc file (a dict without xarray)."""
+    raw = _ebiv.stats(_field(field), period, phases, phase_origin, include_replaced, mm_per_px,
+                      None if output is None else os.fspath(output))
+    return _result(raw, False)
 
 
 def examples() -> Dict[str, str]:

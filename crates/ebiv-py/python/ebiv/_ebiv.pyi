@@ -200,6 +200,18 @@ def live(
     """``ebiv live`` with each field handed to ``on_field``; returns the summary."""
     ...
 
+def stats(
+    field: Any,
+    period: Union[int, str, None] = None,
+    phases: int = 8,
+    phase_origin: Union[int, str, None] = None,
+    include_replaced: bool = False,
+    mm_per_px: Optional[float] = None,
+    output: Optional[str] = None,
+) -> _RawDataset:
+    """``ebiv stats``: the statistics' dataset structure."""
+    ...
+
 def track(
     source: _Source,
     time: Union[str, Tuple[Optional[_Duration], Optional[_Duration]], None] = None,

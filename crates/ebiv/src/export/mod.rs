@@ -20,6 +20,7 @@ mod live;
 mod live_view;
 pub(crate) mod netcdf;
 mod npz;
+mod statistics;
 mod tecplot;
 mod tracks;
 mod vtk;
@@ -31,6 +32,7 @@ pub use self::netcdf::{
     netcdf_dataset, write_dataset_netcdf, write_field_netcdf, Attribute, Dataset, Values, Variable,
 };
 pub use self::npz::write_field_npz;
+pub use self::statistics::{statistics_dataset, write_statistics};
 pub use self::tecplot::{write_field_tecplot, TECPLOT_MISSING};
 pub use self::tracks::{
     read_tracks_csv, read_truth_tracks_csv, track_csv_header, tracks_dataset, write_tracks_npz,
