@@ -67,6 +67,7 @@ fn stats_of_a_series_with_and_without_phases() {
             ".nc or .csv",
         ),
         (vec!["stats", &p("missing.nc")], "missing.nc"),
+        (vec!["stats", &p("flow.nc"), "--phases", "4"], "--period"),
     ] {
         let o = ebiv(&args);
         assert!(!o.status.success());

@@ -543,7 +543,7 @@ pub fn stats<'py>(
     py: Python<'py>,
     field: &Bound<'py, PyAny>,
     period: Option<&Bound<'py, PyAny>>,
-    phases: usize,
+    phases: i64,
     phase_origin: Option<&Bound<'py, PyAny>>,
     include_replaced: bool,
     mm_per_px: Option<f64>,
@@ -555,6 +555,11 @@ pub fn stats<'py>(
             .map(|v| crate::recording::duration_us(name, v))
             .transpose()
     };
+    let phases = usize::try_from(phases).map_err(|_| {
+        PyValueError::new_err(format!(
+            "invalid parameter `phases`: must be 1 to 10000, got {phases}"
+        ))
+    })?;
     let options = ebiv::statistics::StatsOptions {
         period_us: duration("period", period)?,
         phases,

@@ -37,7 +37,7 @@ pub struct FlowStatistics {
     pub phases: usize,
     /// Centre of each phase bin, µs from the phase origin (empty without phase averaging).
     pub phase_centres_us: Vec<f64>,
-    /// Mean of u and v.
+    /// Mean of u.
     pub u_mean: Vec<f64>,
     /// Mean of v.
     pub v_mean: Vec<f64>,
@@ -55,6 +55,14 @@ pub struct FlowStatistics {
     pub unit: &'static str,
     /// The series' calibration, for the writer.
     pub calibration: Option<Calibration>,
+    /// The period of phase averaging, µs.
+    pub period_us: Option<i64>,
+    /// The camera time at which phase 0 begins, µs (with `period_us`).
+    pub phase_origin_us: i64,
+    /// Whether replaced vectors were counted.
+    pub include_replaced: bool,
+    /// The axis convention of the series, for the writer (positions and the sign of v).
+    pub axis_convention: String,
 }
 
 impl FlowStatistics {
@@ -75,6 +83,12 @@ pub fn flow_statistics(series: &FieldSeries, options: &StatsOptions) -> Result<F
     if nt == 0 {
         return Err(Error::parameter("field", "the series holds no field"));
     }
+    if options.period_us.is_some() && !series.time_basis.is_camera_time() {
+        return Err(Error::parameter(
+            "period",
+            "the fields of image pairs carry no times; phase averaging needs a series in camera time",
+        ));
+    }
     let phases = match options.period_us {
         None => 1,
         Some(p) if p <= 0 => {
@@ -94,7 +108,7 @@ pub fn flow_statistics(series: &FieldSeries, options: &StatsOptions) -> Result<F
     let nodes = nx * ny;
     let cells = phases
         .checked_mul(nodes)
-        .filter(|&c| c <= 1 << 28)
+        .filter(|&c| c <= 1 << 24)
         .ok_or_else(|| Error::parameter("phases", "too many phase bins for this grid"))?;
     let origin = options.phase_origin_us.unwrap_or(series.t_us[0]);
     let mut acc = vec![Moments::default(); cells];
@@ -137,6 +151,10 @@ pub fn flow_statistics(series: &FieldSeries, options: &StatsOptions) -> Result<F
         fields: nt,
         unit: series.quantity.units().0,
         calibration: series.calibration,
+        period_us: options.period_us,
+        phase_origin_us: origin,
+        include_replaced: options.include_replaced,
+        axis_convention: crate::export::axis_convention_of(series),
     })
 }
 

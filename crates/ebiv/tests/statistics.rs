@@ -84,7 +84,7 @@ fn statistics_files_hold_the_values() {
     let mut lines = text.lines();
     assert_eq!(
         lines.next().unwrap(),
-        "x_px,y_px,u_mean_px_ms,v_mean_px_ms,u_rms_px_ms,v_rms_px_ms,uu_px_ms2,vv_px_ms2,uv_px_ms2,count"
+        "x_px,y_px,u_mean_px_ms,v_mean_px_ms,u_rms_px_ms,v_rms_px_ms,uu_px_ms_sq,vv_px_ms_sq,uv_px_ms_sq,count"
     );
     let first: Vec<f64> = lines
         .next()

@@ -23,12 +23,17 @@ pub struct StatsArgs {
     /// Phase averaging: the period of the flow (e.g. 20ms).
     #[arg(long, value_name = "DUR")]
     pub period: Option<String>,
-    /// With --period: phase bins per period.
-    #[arg(long, value_name = "N", default_value_t = 8)]
-    pub phases: usize,
+    /// With --period: phase bins per period [default: 8].
+    #[arg(long, value_name = "N", requires = "period")]
+    pub phases: Option<usize>,
     /// With --period: the time at which phase 0 begins, as the field file counts time
     /// (default: the first field's time).
-    #[arg(long, value_name = "DUR")]
+    #[arg(
+        long,
+        value_name = "DUR",
+        requires = "period",
+        allow_hyphen_values = true
+    )]
     pub phase_origin: Option<String>,
     /// Count replaced (interpolated) vectors as samples.
     #[arg(long)]
@@ -47,7 +52,7 @@ pub fn run(args: &StatsArgs) -> Result<(), Error> {
     };
     let options = StatsOptions {
         period_us: duration("period", &args.period)?,
-        phases: args.phases,
+        phases: args.phases.unwrap_or(8),
         phase_origin_us: duration("phase-origin", &args.phase_origin)?,
         include_replaced: args.include_replaced,
     };
@@ -56,14 +61,30 @@ pub fn run(args: &StatsArgs) -> Result<(), Error> {
         ..FieldReadOptions::default()
     };
     read_options.validate()?;
-    let series = read_field(&args.field, &read_options)?;
+    let mut series = read_field(&args.field, &read_options)?;
+    if let (Some(mm_per_px), None) = (args.mm_per_px, series.calibration) {
+        // A scale given for a file without one: the statistics in m/s, y down.
+        series.calibration = Some(ebiv::field::Calibration {
+            mm_per_px,
+            origin_px: [0.0, 0.0],
+            y_up: false,
+        });
+    }
     let stats = flow_statistics(&series, &options)?;
     ebiv::export::write_statistics(&stats, &series.attributes, &args.output)?;
-    let nodes = stats.count.len();
+    let bins = stats.count.len();
     let counted = stats.count.iter().filter(|&&c| c > 0).count();
-    let mean_count = stats.count.iter().map(|&c| c as f64).sum::<f64>() / nodes.max(1) as f64;
+    let mean_count = stats.count.iter().map(|&c| c as f64).sum::<f64>() / bins.max(1) as f64;
+    if counted == 0 {
+        eprintln!("warning: no valid vector in the series: every statistic is NaN");
+    }
+    let what = if stats.phases > 1 {
+        "node-phase bins"
+    } else {
+        "nodes"
+    };
     println!(
-        "{} field(s), {}×{} nodes{}: {counted} of {nodes} with a valid vector, {mean_count:.1} valid samples per node on average",
+        "{} field(s), {}×{} nodes{}: {counted} of {bins} {what} with a valid vector, {mean_count:.1} valid samples per bin on average",
         stats.fields,
         stats.x.len(),
         stats.y.len(),

@@ -314,6 +314,11 @@ impl<'a> Written<'a> {
 }
 
 /// One sentence stating the axis convention of what is written for `field`.
+pub fn axis_convention_of(field: &FieldSeries) -> String {
+    axis_convention(field)
+}
+
+/// One sentence stating the axis convention of what is written for `field`.
 pub(crate) fn axis_convention(field: &FieldSeries) -> String {
     let (image_unit, physical_unit) = field.quantity.units();
     let noun = field.quantity.noun();

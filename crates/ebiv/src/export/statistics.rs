@@ -1,13 +1,18 @@
 //! Flow statistics ([`crate::statistics`]) as NetCDF or CSV.
 //!
 //! NetCDF: dimensions `(y, x)`, or `(phase, y, x)` with phase averaging; variables `u_mean`,
-//! `v_mean`, `u_rms`, `v_rms` (`double`, in the unit of the series), `uu`, `vv`, `uv` (its
-//! square), `count` (`int`, the valid samples), and `phase` (µs from the phase origin, the
+//! `v_mean`, `u_rms`, `v_rms` (`double`, in the unit of the series), `uu`, `vv`, `uv` (in the
+//! square of that unit), `count` (`int`, the valid samples), and `phase` (µs from the phase origin, the
 //! centre of each bin). A calibrated series is written in m/s (and mm for `x_mm`, `y_mm`),
 //! with y and v pointing up when the calibration says so, which flips the sign of `v_mean`
 //! and `uv`. Nodes without two samples have NaN stresses; without one, NaN means.
 //!
-//! CSV: one line per node (`phase` first with phase averaging), the same columns.
+//! CSV: one line per node (`phase` first with phase averaging), the same quantities, the
+//! stresses' unit suffixed `_sq` (`uu_px_ms_sq`).
+//!
+//! Global attributes state the axis convention (which way y and v point), the calibration,
+//! the period and phase origin, and whether replaced vectors were counted; then the source
+//! series' attributes, prefixed `source_`.
 
 use super::netcdf::{Attribute, Dataset, Values, Variable};
 use super::{write_atomic, write_dataset_netcdf, SOFTWARE};
@@ -105,14 +110,24 @@ pub fn statistics_dataset(st: &FlowStatistics, attributes: &[(String, String)]) 
         }
     }
     let (values, unit, squared) = quantities(st);
+    let v_direction = match &st.calibration {
+        Some(c) if c.y_up => " (v positive up)",
+        _ => " (v positive down)",
+    };
     for ((name, long), values) in QUANTITIES.iter().zip(values) {
         let unit = if name.len() == 2 { &squared } else { &unit };
+        // The quantities whose sign depends on the direction of v.
+        let long = if matches!(*name, "v_mean" | "uv") {
+            format!("{long}{v_direction}")
+        } else {
+            long.to_string()
+        };
         variables.push(Variable {
             name: (*name).into(),
             dims: grid.clone(),
             values: Values::F64(values),
             attributes: vec![
-                ("long_name".into(), text(long)),
+                ("long_name".into(), Attribute::Text(long)),
                 ("units".into(), text(unit)),
             ],
         });
@@ -142,12 +157,32 @@ pub fn statistics_dataset(st: &FlowStatistics, attributes: &[(String, String)]) 
         ("fields".to_string(), Attribute::F64(vec![st.fields as f64])),
         (
             "statistics".to_string(),
-            text("over the valid vectors only; stresses are sample covariances (N - 1)"),
+            text(if st.include_replaced {
+                "over the valid and replaced vectors; stresses are sample covariances (N - 1)"
+            } else {
+                "over the valid vectors only; stresses are sample covariances (N - 1)"
+            }),
         ),
+        ("axis_convention".to_string(), text(&st.axis_convention)),
     ];
+    if let Some(period) = st.period_us {
+        globals.push(("period_us".to_string(), Attribute::F64(vec![period as f64])));
+        globals.push((
+            "phase_origin_us".to_string(),
+            Attribute::F64(vec![st.phase_origin_us as f64]),
+        ));
+    }
+    if let Some(c) = &st.calibration {
+        globals.push(("mm_per_px".to_string(), Attribute::F64(vec![c.mm_per_px])));
+        globals.push((
+            "origin_px".to_string(),
+            Attribute::F64(c.origin_px.to_vec()),
+        ));
+    }
     for (key, value) in attributes {
-        if !globals.iter().any(|(k, _)| k == key) {
-            globals.push((format!("source_{key}"), text(value)));
+        let name = format!("source_{}", super::sanitize_name(key));
+        if !globals.iter().any(|(k, _)| *k == name) {
+            globals.push((name, text(value)));
         }
     }
     Dataset {
@@ -189,7 +224,7 @@ fn write_statistics_csv(st: &FlowStatistics, path: &Path) -> Result<()> {
         write!(w, "x_px,y_px")?;
         for (name, _) in QUANTITIES {
             let unit = if name.len() == 2 {
-                format!("{suffix}2")
+                format!("{suffix}_sq")
             } else {
                 suffix.clone()
             };

@@ -72,6 +72,23 @@ impl EstimatorTask for LiveTask<'_> {
                 }
             }
         }
+        // Checked before the input is opened (a pipe may take long to bring data).
+        let step = match (options.every_us, run.time) {
+            (Some(_), Some(_)) => {
+                return Err(Error::parameter(
+                    "every",
+                    "give the time between fields once: --every, or the STEP of --time",
+                ))
+            }
+            (Some(every), None) if every <= 0 => {
+                return Err(Error::parameter(
+                    "every",
+                    format!("must be positive, got {every} µs"),
+                ))
+            }
+            (Some(every), None) => every,
+            (None, time) => time.map_or(run.slab_us(), |t| t.step),
+        };
         // The reader also stops when the evaluation fails.
         let failed = Arc::new(AtomicBool::new(false));
         let stop: StopCheck = {
@@ -95,22 +112,6 @@ impl EstimatorTask for LiveTask<'_> {
         let last = grids.last().expect("grids checked non-empty");
         let mut attributes = crate::process::run_attributes(estimator, &params);
         attributes.push(("source".into(), name.clone()));
-        let step = match (options.every_us, run.time) {
-            (Some(_), Some(_)) => {
-                return Err(Error::parameter(
-                    "every",
-                    "give the time between fields once: --every, or the STEP of --time",
-                ))
-            }
-            (Some(every), None) if every <= 0 => {
-                return Err(Error::parameter(
-                    "every",
-                    format!("must be positive, got {every} µs"),
-                ))
-            }
-            (Some(every), None) => every,
-            (None, time) => time.map_or(run.slab_us(), |t| t.step),
-        };
         let mut start = LiveStart {
             source: name.clone(),
             geometry,
