@@ -2,27 +2,9 @@
 //! replay writes its summary, and bad arguments fail before any work.
 
 mod common;
-use common::{ebiv, stdout};
+use common::{ebiv, simulated_uniform as recording, stdout};
 use std::io::Write;
 use std::process::{Command, Stdio};
-
-/// A short uniform-flow recording in `dir`.
-fn recording(dir: &std::path::Path) -> String {
-    let rec = dir.join("rec.raw");
-    let o = ebiv(&[
-        "simulate",
-        "--example",
-        "uniform",
-        "--duration",
-        "40ms",
-        "--seed",
-        "3",
-        "-o",
-        rec.to_str().unwrap(),
-    ]);
-    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
-    rec.to_str().unwrap().to_string()
-}
 
 const SETTINGS: [&str; 6] = ["--slab", "10ms", "--time", "::5ms", "--window", "48,32"];
 

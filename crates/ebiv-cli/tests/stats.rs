@@ -1,25 +1,16 @@
 //! `ebiv stats`: statistics of a processed series, phase averaging, and errors.
 
 mod common;
-use common::{ebiv, stdout};
+use common::{ebiv, simulated_uniform, stdout};
 
 #[test]
 fn stats_of_a_series_with_and_without_phases() {
     let dir = tempfile::tempdir().unwrap();
     let p = |name: &str| dir.path().join(name).to_str().unwrap().to_string();
-    let o = ebiv(&[
-        "simulate",
-        "--example",
-        "uniform",
-        "--duration",
-        "40ms",
-        "-o",
-        &p("rec.raw"),
-    ]);
-    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let rec = simulated_uniform(dir.path());
     let o = ebiv(&[
         "process",
-        &p("rec.raw"),
+        &rec,
         "--slab",
         "10ms",
         "--time",

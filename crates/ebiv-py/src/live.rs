@@ -7,14 +7,12 @@ use crate::measure::{check_output, series_to_py, set_method, settings_from, warn
 use crate::observe::watched;
 use ebiv::export::{LiveOutputs, LiveView, LiveWriter};
 use ebiv::live::{LiveField, LiveInput, LiveOptions, LiveSink, LiveStart, LiveSummary};
-use ebiv::process::Method;
 use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 use std::path::PathBuf;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::{Arc, Mutex};
-use std::time::Duration;
 
 /// Run `ebiv live` on `source` (a path, or `"-"` for standard input): `follow` a growing
 /// file (ending after `idle` without growth), `replay` a finished one at `speed`, or read it
@@ -44,12 +42,7 @@ pub fn live<'py>(
     set_method(&mut s, method)?;
     s.input = Some(source.clone());
     let run = s.resolve().py_err()?;
-    if matches!(run.method, Method::Piv | Method::Pulsed) {
-        return Err(PyValueError::new_err(
-            "invalid parameter `method`: live computes corrsum and motion fields; piv and pulsed are `ebiv.process`'s",
-        ));
-    }
-    let input = live_input(source, follow, idle, replay, speed)?;
+    let input = LiveInput::choose(&source, follow, replay, speed, idle).py_err()?;
     let writer = if write_output {
         check_output(&run.output, "output")?;
         Some(LiveWriter::create(&run.output).py_err()?)
@@ -57,11 +50,8 @@ pub fn live<'py>(
         None
     };
     let mut options = LiveOptions::new(input);
-    options.read = ebiv::io::ReadOptions {
-        batch_bytes: options.read.batch_bytes,
-        ..read
-    };
-    options.queue = queue.max(1);
+    options.set_read_options(read);
+    options.queue = queue;
     options.every_us = every
         .map(|text| {
             ebiv::units::parse_us(text)
@@ -70,11 +60,6 @@ pub fn live<'py>(
         .transpose()?;
     let view = match serve {
         Some(address) => {
-            let address = address.parse().map_err(|_| {
-                PyValueError::new_err(format!(
-                    "invalid parameter `serve`: `{address}` is not an address such as 127.0.0.1:8080"
-                ))
-            })?;
             let view = LiveView::start(address, allow_remote).py_err()?;
             options.events_every = Some(ebiv::export::LIVE_VIEW_INTERVAL);
             Some(view)
@@ -112,53 +97,6 @@ pub fn live<'py>(
         warn(py, warning)?;
     }
     summary_to_py(py, &summary)
-}
-
-fn live_input(
-    source: PathBuf,
-    follow: bool,
-    idle: &str,
-    replay: bool,
-    speed: f64,
-) -> PyResult<LiveInput> {
-    let stdin = source.as_os_str() == "-";
-    if follow && replay {
-        return Err(PyValueError::new_err(
-            "invalid parameter `follow`: give follow or replay, not both",
-        ));
-    }
-    if stdin && (follow || replay) {
-        return Err(PyValueError::new_err(
-            "invalid parameter `source`: standard input (\"-\") is read as it comes; follow and replay take a file",
-        ));
-    }
-    if !(speed.is_finite() && speed > 0.0) {
-        return Err(PyValueError::new_err(format!(
-            "invalid parameter `speed`: must be positive, got {speed}"
-        )));
-    }
-    let idle = ebiv::units::parse_us(idle)
-        .ok()
-        .and_then(|us| u64::try_from(us).ok())
-        .filter(|&us| us > 0)
-        .map(Duration::from_micros)
-        .ok_or_else(|| {
-            PyValueError::new_err(format!(
-                "invalid parameter `idle`: a positive duration such as \"5s\", got `{idle}`"
-            ))
-        })?;
-    Ok(if stdin {
-        LiveInput::Stdin
-    } else if follow {
-        LiveInput::Follow { path: source, idle }
-    } else if replay {
-        LiveInput::Replay {
-            path: source,
-            speed,
-        }
-    } else {
-        LiveInput::File(source)
-    })
 }
 
 /// The outputs, plus the Python callback.

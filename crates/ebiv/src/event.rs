@@ -189,12 +189,15 @@ impl EventBuffer {
         self.p.reserve(n);
     }
 
-    /// Keep the first `len` events (the triggers stay).
-    pub fn truncate(&mut self, len: usize) {
-        self.t.truncate(len);
-        self.x.truncate(len);
-        self.y.truncate(len);
-        self.p.truncate(len);
+    /// Keep the first `at` events and return the rest (the triggers stay here).
+    pub fn split_off(&mut self, at: usize) -> EventBuffer {
+        EventBuffer {
+            t: self.t.split_off(at),
+            x: self.x.split_off(at),
+            y: self.y.split_off(at),
+            p: self.p.split_off(at),
+            ..EventBuffer::default()
+        }
     }
 
     /// Append one event.

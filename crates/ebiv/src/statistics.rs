@@ -10,7 +10,7 @@
 //! the normal stress.
 
 use crate::error::{Error, Result};
-use crate::field::{Calibration, FieldSeries, Status};
+use crate::field::{Calibration, FieldSeries, Quantity, Status};
 
 /// How to average.
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
@@ -26,7 +26,7 @@ pub struct StatsOptions {
 }
 
 /// Statistics at every node, per phase: arrays indexed `[phase][y][x]` (one phase without
-/// phase averaging), in the series' units (px/ms, or px for displacements).
+/// phase averaging), in the series' image units (px/ms, or px for displacements).
 #[derive(Debug, Clone, PartialEq)]
 pub struct FlowStatistics {
     /// Column centres, px.
@@ -51,8 +51,8 @@ pub struct FlowStatistics {
     pub count: Vec<u32>,
     /// Fields averaged.
     pub fields: usize,
-    /// The series' unit of u and v, and whether it is calibrated.
-    pub unit: &'static str,
+    /// What u and v are (velocities or displacements), for their unit.
+    pub quantity: Quantity,
     /// The series' calibration, for the writer.
     pub calibration: Option<Calibration>,
     /// The period of phase averaging, µs.
@@ -61,8 +61,6 @@ pub struct FlowStatistics {
     pub phase_origin_us: i64,
     /// Whether replaced vectors were counted.
     pub include_replaced: bool,
-    /// The axis convention of the series, for the writer (positions and the sign of v).
-    pub axis_convention: String,
 }
 
 impl FlowStatistics {
@@ -149,12 +147,11 @@ pub fn flow_statistics(series: &FieldSeries, options: &StatsOptions) -> Result<F
         uv: acc.iter().map(|m| m.covariance(m.m_uv)).collect(),
         count: acc.iter().map(|m| m.n).collect(),
         fields: nt,
-        unit: series.quantity.units().0,
+        quantity: series.quantity,
         calibration: series.calibration,
         period_us: options.period_us,
         phase_origin_us: origin,
         include_replaced: options.include_replaced,
-        axis_convention: crate::export::axis_convention_of(series),
     })
 }
 

@@ -9,10 +9,8 @@ use crate::input::InputArgs;
 use clap::Args;
 use ebiv::export::{LiveOutputs, LiveView, LiveWriter};
 use ebiv::live::{LiveField, LiveInput, LiveOptions, LiveSink, LiveStart, LiveSummary};
-use ebiv::process::Method;
 use ebiv::Error;
 use std::io::Write;
-use std::net::SocketAddr;
 use std::path::PathBuf;
 use std::sync::Arc;
 use std::time::{Duration, Instant};
@@ -83,12 +81,6 @@ pub fn run(args: &LiveArgs) -> Result<(), Error> {
         ));
     }
     let run = settings.resolve()?;
-    if matches!(run.method, Method::Piv | Method::Pulsed) {
-        return Err(Error::parameter(
-            "method",
-            "live computes corrsum and motion fields; piv and pulsed are for ebiv process",
-        ));
-    }
     let given_output = args
         .settings
         .given
@@ -100,14 +92,16 @@ pub fn run(args: &LiveArgs) -> Result<(), Error> {
         super::check_output_path(path)?;
     }
     let writer = output.as_deref().map(LiveWriter::create).transpose()?;
-    let input = live_input(args, &run.input_path())?;
+    let input = LiveInput::choose(
+        &run.input_path(),
+        args.follow,
+        args.replay,
+        args.speed,
+        &args.idle,
+    )?;
     let mut options = LiveOptions::new(input);
-    let read = args.input.read_options()?;
-    options.read = ebiv::io::ReadOptions {
-        batch_bytes: options.read.batch_bytes,
-        ..read
-    };
-    options.queue = args.queue.max(1);
+    options.set_read_options(args.input.read_options()?);
+    options.queue = args.queue;
     options.every_us = args
         .every
         .as_deref()
@@ -115,12 +109,6 @@ pub fn run(args: &LiveArgs) -> Result<(), Error> {
         .transpose()?;
     let view = match &args.serve {
         Some(addr) => {
-            let addr: SocketAddr = addr.parse().map_err(|_| {
-                Error::parameter(
-                    "serve",
-                    format!("`{addr}` is not an address such as 127.0.0.1:8080"),
-                )
-            })?;
             let view = LiveView::start(addr, args.allow_remote)?;
             println!("live view: http://{}/", view.address());
             options.events_every = Some(ebiv::export::LIVE_VIEW_INTERVAL);
@@ -161,48 +149,6 @@ fn config_sets_output(path: &std::path::Path) -> bool {
         .ok()
         .and_then(|text| text.parse::<toml::Table>().ok())
         .is_some_and(|table| table.contains_key("output"))
-}
-
-fn live_input(args: &LiveArgs, path: &std::path::Path) -> Result<LiveInput, Error> {
-    let stdin = path.as_os_str() == "-";
-    if stdin && (args.follow || args.replay) {
-        return Err(Error::parameter(
-            "input",
-            "standard input (-) is read as it comes; --follow and --replay take a file",
-        ));
-    }
-    if !(args.speed.is_finite() && args.speed > 0.0) {
-        return Err(Error::parameter(
-            "speed",
-            format!("must be a positive number, got {}", args.speed),
-        ));
-    }
-    let idle = ebiv::units::parse_us(&args.idle)
-        .map_err(|m| Error::parameter("idle", m))
-        .and_then(|us| {
-            u64::try_from(us)
-                .ok()
-                .filter(|&us| us > 0)
-                .map(Duration::from_micros)
-                .ok_or_else(|| {
-                    Error::parameter("idle", format!("must be positive, got {}", args.idle))
-                })
-        })?;
-    Ok(if stdin {
-        LiveInput::Stdin
-    } else if args.follow {
-        LiveInput::Follow {
-            path: path.to_path_buf(),
-            idle,
-        }
-    } else if args.replay {
-        LiveInput::Replay {
-            path: path.to_path_buf(),
-            speed: args.speed,
-        }
-    } else {
-        LiveInput::File(path.to_path_buf())
-    })
 }
 
 /// Writes, serves and prints a status line about twice a second.

@@ -37,3 +37,22 @@ pub fn stdout(o: &Output) -> String {
 pub fn stderr(o: &Output) -> String {
     String::from_utf8_lossy(&o.stderr).into_owned()
 }
+
+/// Simulate 40 ms of the `uniform` example (seed 3) into `dir/rec.raw`; returns its path.
+pub fn simulated_uniform(dir: &std::path::Path) -> String {
+    let rec = dir.join("rec.raw");
+    let rec = rec.to_str().expect("a UTF-8 path").to_string();
+    let o = ebiv(&[
+        "simulate",
+        "--example",
+        "uniform",
+        "--duration",
+        "40ms",
+        "--seed",
+        "3",
+        "-o",
+        &rec,
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    rec
+}

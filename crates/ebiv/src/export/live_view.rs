@@ -65,9 +65,15 @@ struct ViewState {
 }
 
 impl LiveView {
-    /// Serve the page at `address` (port 0: a free one). Addresses other than loopback need
-    /// `allow_remote`.
-    pub fn start(address: SocketAddr, allow_remote: bool) -> Result<Self> {
+    /// Serve the page at `address` (`127.0.0.1:8080`; port 0: a free one). Addresses other
+    /// than loopback need `allow_remote`.
+    pub fn start(address: &str, allow_remote: bool) -> Result<Self> {
+        let address: SocketAddr = address.parse().map_err(|_| {
+            Error::parameter(
+                "serve",
+                format!("`{address}` is not an address such as 127.0.0.1:8080"),
+            )
+        })?;
         if !address.ip().is_loopback() && !allow_remote {
             return Err(Error::parameter(
                 "serve",

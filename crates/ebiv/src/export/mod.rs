@@ -41,7 +41,7 @@ pub use self::tracks::{
 pub use self::vtk::{vtk_series_paths, write_field_vtk};
 
 use crate::error::{Error, Result};
-use crate::field::{Calibration, FieldSeries, Status};
+use crate::field::{Calibration, FieldSeries, Quantity, Status};
 use std::io::{BufWriter, Write};
 use std::path::{Path, PathBuf};
 
@@ -314,15 +314,15 @@ impl<'a> Written<'a> {
 }
 
 /// One sentence stating the axis convention of what is written for `field`.
-pub fn axis_convention_of(field: &FieldSeries) -> String {
-    axis_convention(field)
+pub(crate) fn axis_convention(field: &FieldSeries) -> String {
+    axis_convention_of(field.quantity, field.calibration.as_ref())
 }
 
-/// One sentence stating the axis convention of what is written for `field`.
-pub(crate) fn axis_convention(field: &FieldSeries) -> String {
-    let (image_unit, physical_unit) = field.quantity.units();
-    let noun = field.quantity.noun();
-    match &field.calibration {
+/// [`axis_convention`] of what holds `quantity`, with `calibration`.
+pub(crate) fn axis_convention_of(quantity: Quantity, calibration: Option<&Calibration>) -> String {
+    let (image_unit, physical_unit) = quantity.units();
+    let noun = quantity.noun();
+    match calibration {
         None => format!(
             "image coordinates: x to the right, y down, pixel centres at integers; \
              positions in px, {noun} in {image_unit}"

@@ -38,13 +38,10 @@ const QUANTITIES: [(&str, &str); 7] = [
 /// The values of each quantity of [`QUANTITIES`], physical when calibrated, and their
 /// unit and squared unit.
 fn quantities(st: &FlowStatistics) -> (Vec<Vec<f64>>, String, String) {
+    let (image_unit, physical_unit) = st.quantity.units();
     let (scale, flip, unit) = match &st.calibration {
-        Some(c) => (
-            c.mm_per_px,
-            if c.y_up { -1.0 } else { 1.0 },
-            if st.unit == "px" { "mm" } else { "m/s" },
-        ),
-        None => (1.0, 1.0, st.unit),
+        Some(c) => (c.mm_per_px, if c.y_up { -1.0 } else { 1.0 }, physical_unit),
+        None => (1.0, 1.0, image_unit),
     };
     let scaled = |v: &[f64], k: f64| v.iter().map(|x| x * k).collect::<Vec<f64>>();
     let values = vec![
@@ -163,7 +160,13 @@ pub fn statistics_dataset(st: &FlowStatistics, attributes: &[(String, String)]) 
                 "over the valid vectors only; stresses are sample covariances (N - 1)"
             }),
         ),
-        ("axis_convention".to_string(), text(&st.axis_convention)),
+        (
+            "axis_convention".to_string(),
+            text(&super::axis_convention_of(
+                st.quantity,
+                st.calibration.as_ref(),
+            )),
+        ),
     ];
     if let Some(period) = st.period_us {
         globals.push(("period_us".to_string(), Attribute::F64(vec![period as f64])));

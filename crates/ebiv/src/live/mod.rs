@@ -64,6 +64,59 @@ impl LiveInput {
         }
     }
 
+    /// The input a command asks for: `source` (`-` for standard input), followed as it
+    /// grows (`follow`, ending after `idle`, e.g. `5s`, without growth), replayed at `speed`
+    /// (`replay`), or else read as fast as the fields are computed. Errors name the option.
+    pub fn choose(
+        source: &std::path::Path,
+        follow: bool,
+        replay: bool,
+        speed: f64,
+        idle: &str,
+    ) -> crate::Result<LiveInput> {
+        use crate::Error;
+        let stdin = source.as_os_str() == "-";
+        if follow && replay {
+            return Err(Error::parameter(
+                "follow",
+                "follow or replay: give one, not both (--follow, --replay)",
+            ));
+        }
+        if stdin && (follow || replay) {
+            return Err(Error::parameter(
+                "input",
+                "standard input (-) is read as it comes; --follow and --replay take a file",
+            ));
+        }
+        if !(speed.is_finite() && speed > 0.0) {
+            return Err(Error::parameter(
+                "speed",
+                format!("must be a positive number, got {speed}"),
+            ));
+        }
+        let idle = crate::units::parse_us(idle)
+            .ok()
+            .and_then(|us| u64::try_from(us).ok())
+            .filter(|&us| us > 0)
+            .map(Duration::from_micros)
+            .ok_or_else(|| {
+                Error::parameter(
+                    "idle",
+                    format!("a positive duration such as 5s, got `{idle}`"),
+                )
+            })?;
+        let path = source.to_path_buf();
+        Ok(if stdin {
+            LiveInput::Stdin
+        } else if follow {
+            LiveInput::Follow { path, idle }
+        } else if replay {
+            LiveInput::Replay { path, speed }
+        } else {
+            LiveInput::File(path)
+        })
+    }
+
     /// Whether fields are dropped when the estimator falls behind (a live input cannot wait).
     pub fn drops_when_behind(&self) -> bool {
         !matches!(self, LiveInput::File(_))
@@ -102,6 +155,16 @@ impl LiveOptions {
             every_us: None,
             events_every: None,
         }
+    }
+}
+
+impl LiveOptions {
+    /// Read with `read` (format, sensor size, text columns), in the live run's small batches.
+    pub fn set_read_options(&mut self, read: ReadOptions) {
+        self.read = ReadOptions {
+            batch_bytes: self.read.batch_bytes,
+            ..read
+        };
     }
 }
 

@@ -7,7 +7,7 @@ use crate::error::{Error, Result};
 use crate::estimate::Estimator;
 use crate::event::{EventBuffer, Geometry};
 use crate::io::{open_source, EventReader};
-use crate::process::{process_slab, BatchSource, ProcessParams, SlidingEvents};
+use crate::process::{process_slab, BatchSource, Method, ProcessParams, SlidingEvents};
 use crate::settings::{EstimatorTask, Resolved};
 use crate::volume::Slab;
 use std::collections::VecDeque;
@@ -26,6 +26,12 @@ pub fn run_live(
     stop: StopCheck,
     sink: &mut dyn LiveSink,
 ) -> Result<LiveSummary> {
+    if matches!(run.method, Method::Piv | Method::Pulsed) {
+        return Err(Error::parameter(
+            "method",
+            "live computes corrsum and motion fields; piv and pulsed are for ebiv process",
+        ));
+    }
     run.with_event_estimator(LiveTask {
         run,
         options,
@@ -326,12 +332,7 @@ impl BatchSource for LiveBatches {
             let span = (REPLAY_PIECE.as_secs_f64() * 1e6 * speed).max(1.0) as i64;
             let cut = out.t.partition_point(|&t| t <= first.saturating_add(span));
             if cut < out.len() {
-                let mut rest = EventBuffer::new();
-                for i in cut..out.len() {
-                    rest.push(out.t[i], out.x[i], out.y[i], out.p[i]);
-                }
-                out.truncate(cut);
-                self.pending = Some(rest);
+                self.pending = Some(out.split_off(cut));
             }
             if let Some(&t) = out.t.last() {
                 self.wait_until(t);
