@@ -25,6 +25,9 @@ seed dat "$data/prophesee/sample_ncars.dat"
 seed aedat4 "$data/inivation/sample.aedat4"
 seed es "$data/es/dvs.es"
 seed npz "$data/ebiv/wallflow_slice2.npz"
+seed hdf5 "$data/hdf5/ecf_small.hdf5"
+seed hdf5 "$data/hdf5/generic_dsec.h5"
+seed hdf5 "$here/../crates/ebiv/tests/data/hdf5/metavision_ecf.hdf5"
 
 "$ebiv" convert "$data/prophesee/sample_ncars.dat" "$tmp/s.csv" --geometry 128x128
 "$ebiv" convert "$data/prophesee/sample_ncars.dat" "$tmp/s.npy" --geometry 128x128

@@ -94,3 +94,48 @@ fn wallflow_npz_loads() {
     );
     assert!(rec.events.x.iter().all(|&x| x < 512) && rec.events.y.iter().all(|&y| y < 512));
 }
+
+#[test]
+fn metavision_hdf5_with_ecf_chunks() {
+    let Some(rec) = check("hdf5/ecf_small.hdf5", Format::Hdf5) else {
+        return;
+    };
+    let exp = expected(&data_dir().unwrap(), "hdf5/ecf_small.hdf5");
+    let triggers: Vec<Vec<i64>> = rec
+        .events
+        .triggers
+        .iter()
+        .map(|tr| vec![tr.t, i64::from(tr.value), i64::from(tr.channel)])
+        .collect();
+    let want: Vec<Vec<i64>> = serde_json::from_value(exp["triggers_t_p_id"].clone()).unwrap();
+    assert_eq!(triggers, want);
+    let geometry = rec.metadata.geometry.unwrap();
+    assert_eq!([geometry.width, geometry.height], [640, 480]);
+    assert_eq!(rec.metadata.serial.as_deref(), Some("30384338"));
+}
+
+#[test]
+fn dsec_style_hdf5_columns() {
+    check("hdf5/generic_dsec.h5", Format::Hdf5);
+}
+
+/// Seeking by `/CD/indexes` lands on the same events as reading from the start.
+#[test]
+fn metavision_hdf5_seeks_by_its_index() {
+    let Some(dir) = data_dir() else { return };
+    let path = dir.join("hdf5/ecf_small.hdf5");
+    let all = io::read_all(&path, &ReadOptions::default()).unwrap().events;
+    for start in [
+        1_317_888, 1_319_950, 1_320_000, 1_321_234, 1_322_418, 1_400_000,
+    ] {
+        let mut reader = io::open(&path, &ReadOptions::default()).unwrap();
+        reader.skip_to(start).unwrap();
+        let mut got = Vec::new();
+        let mut batch = ebiv::EventBuffer::new();
+        while reader.read_batch(&mut batch).unwrap() {
+            got.extend(batch.t.iter().copied());
+        }
+        let want: Vec<i64> = all.t.iter().copied().filter(|&t| t >= start).collect();
+        assert_eq!(got, want, "from {start}");
+    }
+}

@@ -35,6 +35,9 @@ pub enum Format {
     Npz,
     /// The EBIV authors' `.evt` format (64-byte header, 8-byte records).
     EbivEvt,
+    /// HDF5: Metavision's `/CD/events` (ECF-compressed or plain) or event columns
+    /// (`events/x`, `events/y`, `events/t`, `events/p`).
+    Hdf5,
     /// Events handed over in memory ([`super::open_events`]), not read from a file.
     Memory,
 }
@@ -56,6 +59,7 @@ impl Format {
             Format::Npy => "NumPy .npy",
             Format::Npz => "NumPy .npz",
             Format::EbivEvt => "EBIV .evt",
+            Format::Hdf5 => "HDF5",
             Format::Memory => "events in memory",
         }
     }
@@ -77,6 +81,7 @@ impl Format {
             "npy" => Format::Npy,
             "npz" => Format::Npz,
             "evt" | "ebiv" => Format::EbivEvt,
+            "hdf5" | "h5" => Format::Hdf5,
             _ => return None,
         })
     }
@@ -150,6 +155,9 @@ fn classify(head: &[u8], extension: Option<&str>) -> Option<Format> {
     if head.starts_with(b"PK\x03\x04") || head.starts_with(b"PK\x05\x06") {
         return Some(Format::Npz);
     }
+    if looks_like_hdf5(head) {
+        return Some(Format::Hdf5);
+    }
     if looks_like_ebiv_evt(head) {
         return Some(Format::EbivEvt);
     }
@@ -167,6 +175,16 @@ fn classify(head: &[u8], extension: Option<&str>) -> Option<Format> {
         "csv" | "txt" => Some(Format::Text),
         _ => None,
     }
+}
+
+/// The HDF5 signature, at the start of the file or after a user block of 512, 1024 or 2048
+/// bytes (HDF5 File Format Specification, §II.A: the superblock sits at 0 or a power of two
+/// from 512 on).
+fn looks_like_hdf5(head: &[u8]) -> bool {
+    const SIGNATURE: &[u8] = b"\x89HDF\r\n\x1a\n";
+    [0usize, 512, 1024, 2048]
+        .iter()
+        .any(|&at| head.get(at..at + SIGNATURE.len()) == Some(SIGNATURE))
 }
 
 /// The EBIV `.evt` header: signature `EVT3`/`EVT2`, then a header length of 48..=4096 at
@@ -191,9 +209,6 @@ fn looks_like_text(head: &[u8]) -> bool {
 fn describe_unknown(head: &[u8], extension: Option<&str>) -> String {
     if head.is_empty() {
         return "the file is empty".into();
-    }
-    if head.starts_with(b"\x89HDF\r\n\x1a\n") {
-        return "HDF5 (Metavision ECF) files are not read yet; convert with `metavision_hdf5_to_raw` or export to .npy".into();
     }
     let shown: String = head
         .iter()
@@ -232,8 +247,14 @@ mod tests {
     }
 
     #[test]
-    fn unknown_format_message_names_hdf5() {
-        let msg = describe_unknown(b"\x89HDF\r\n\x1a\n....", Some("h5"));
-        assert!(msg.contains("HDF5"));
+    fn hdf5_is_found_at_the_start_or_after_a_user_block() {
+        let signature = b"\x89HDF\r\n\x1a\n";
+        assert_eq!(classify(signature, Some("xyz")), Some(Format::Hdf5));
+        let mut blocked = vec![0u8; 512];
+        blocked.extend_from_slice(signature);
+        assert_eq!(classify(&blocked, None), Some(Format::Hdf5));
+        let mut elsewhere = vec![0u8; 100];
+        elsewhere.extend_from_slice(signature);
+        assert_ne!(classify(&elsewhere, None), Some(Format::Hdf5));
     }
 }

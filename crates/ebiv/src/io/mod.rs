@@ -11,11 +11,13 @@ mod bytestream;
 mod dat;
 mod detect;
 mod ebiv_evt;
+pub mod ecf;
 mod es;
 mod evt2;
 mod evt21;
 mod evt3;
 pub mod field;
+mod hdf5;
 pub mod index;
 mod memory;
 mod npy;
@@ -251,6 +253,7 @@ pub fn open_source(
         Format::Npy => npy::open(source, ctx, options)?,
         Format::Npz => npz::open(source, ctx, options)?,
         Format::EbivEvt => ebiv_evt::open(source, ctx, options)?,
+        Format::Hdf5 => hdf5::open(source, ctx, options)?,
         Format::Memory => {
             return Err(Error::parameter(
                 "format",

@@ -23,7 +23,7 @@ mod header;
 mod literal;
 mod values;
 
-pub(crate) use header::{read_header, Dtype, NpyHeader, Scalar};
+pub(crate) use header::{read_header, Dtype, Kind, NpyHeader, Scalar};
 pub(crate) use values::{gather, Converter, Num, Outcome, TimeConv};
 
 use super::prophesee_header::read_up_to;

@@ -1,0 +1,682 @@
+//! HDF5 event files, read with the pure-Rust `hdf5-reader` (no libhdf5, no plugin):
+//! - **Metavision** (`metavision_file_to_hdf5`, Metavision Studio; formats.md §6): the compound
+//!   dataset `/CD/events` (`x u16, y u16, p i16, t i64`), its chunks compressed with Prophesee's
+//!   ECF codec (HDF5 filter 0x8ECF, decoded by [`super::ecf`]) or stored plain; `/CD/indexes`
+//!   to seek by time; external triggers in `/EXT_TRIGGER/events` (`p i16, t i64, id i16`); the
+//!   camera's header as root attributes, with `time_shift` when the writer shifted nothing
+//!   but recorded the Metavision time origin.
+//! - **Column layouts** (DSEC and similar): the 1-D datasets `events/x`, `events/y`,
+//!   `events/t`, `events/p` (or the same names at the root), of any integer or float type, with
+//!   the DSEC `t_offset` (µs added to every `t`) and `ms_to_idx` (the first event of every
+//!   millisecond, used to seek).
+//!
+//! Events are read a few chunks at a time, so memory holds a batch, not the recording; the
+//! HDF5 reader's own limits bound what a damaged file can make it allocate.
+//!
+//! Time: ebiv keeps the time stamps as stored (formats.md §14). A Metavision file's
+//! `time_shift` attribute is what the Metavision reader subtracts; `--metavision-time` does
+//! the same.
+
+mod storage;
+
+use super::npy::{count_outcome, gather, Converter, Kind, Outcome, Scalar, TimeConv};
+use super::prophesee_header::PropheseeHeader;
+use super::raw::metadata_from_header;
+use super::{DecodeReport, Format, FormatReader, Metadata, ReadOptions, ReadSeek};
+use crate::error::{Error, Result};
+use crate::event::{EventBuffer, Trigger};
+use hdf5_reader::{
+    dtype_element_size, ByteOrder, Dataset, Datatype, FilterRegistry, H5Type, Hdf5File,
+    OpenOptions, SliceInfo, SliceInfoElem,
+};
+use std::sync::atomic::{AtomicUsize, Ordering};
+use std::sync::Arc;
+use storage::SourceStorage;
+
+/// Largest element (record) of an event dataset read, bytes.
+const MAX_RECORD_BYTES: usize = 64;
+/// Most trigger edges read from `/EXT_TRIGGER/events` (they are held in memory).
+const MAX_TRIGGERS: u64 = 50_000_000;
+/// Most entries of a seek index read (`/CD/indexes`, `ms_to_idx`).
+const MAX_INDEX_ENTRIES: u64 = 100_000_000;
+
+/// Open an HDF5 event file.
+pub(super) fn open(
+    source: Box<dyn ReadSeek>,
+    context: String,
+    options: &ReadOptions,
+) -> Result<Box<dyn FormatReader>> {
+    Ok(Box::new(open_reader(source, context, options)?))
+}
+
+fn open_reader(
+    source: Box<dyn ReadSeek>,
+    context: String,
+    options: &ReadOptions,
+) -> Result<Hdf5Reader> {
+    let storage = SourceStorage::new(source)?;
+    // The ECF filter pads a chunk's events to the chunk's length (the last chunk of a
+    // dataset holds fewer), which it learns once the dataset is found.
+    let chunk_rows = Arc::new(AtomicUsize::new(0));
+    let mut filters = FilterRegistry::new();
+    let rows = Arc::clone(&chunk_rows);
+    filters.register(
+        super::ecf::FILTER_ID,
+        Box::new(move |_, data, _| {
+            let rows = Some(rows.load(Ordering::Relaxed)).filter(|&r| r > 0);
+            super::ecf::decode_records(data, rows)
+                .map_err(|e| hdf5_reader::error::Error::FilterError(format!("ECF: {e}")))
+        }),
+    );
+    let file = Hdf5File::from_storage_with_options(
+        Arc::new(storage),
+        OpenOptions::default().with_filter_registry(filters),
+    )
+    .map_err(|e| hdf5_error(&context, "not a readable HDF5 file", e))?;
+    let layout = Layout::find(&file, &context)?;
+    if let Some(rows) = layout.datasets[0].chunks().and_then(|c| c.first().copied()) {
+        chunk_rows.store(rows as usize, Ordering::Relaxed);
+    }
+    Hdf5Reader::new(file, layout, context, options)
+}
+
+fn hdf5_error(context: &str, what: &str, e: hdf5_reader::error::Error) -> Error {
+    Error::corrupt(context, 0, format!("{what}: {e}"))
+}
+
+/// Where a file keeps its events.
+struct Layout {
+    kind: LayoutKind,
+    /// The datasets the fields are read from (one for `/CD/events`, four for columns).
+    datasets: Vec<Dataset>,
+    /// t, x, y, p: the dataset (index into `datasets`), byte offset in its record, type.
+    fields: [Field; 4],
+    /// Events stored.
+    rows: u64,
+}
+
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum LayoutKind {
+    Metavision,
+    Columns,
+}
+
+#[derive(Debug, Clone, Copy)]
+struct Field {
+    dataset: usize,
+    offset: usize,
+    scalar: Scalar,
+}
+
+impl Layout {
+    fn find(file: &Hdf5File, context: &str) -> Result<Layout> {
+        if let Ok(cd) = file.dataset("/CD/events") {
+            return Layout::metavision(cd, context);
+        }
+        for group in ["/events", ""] {
+            let names = ["t", "x", "y", "p"].map(|n| format!("{group}/{n}"));
+            if let Ok(found) = names
+                .iter()
+                .map(|n| file.dataset(n))
+                .collect::<std::result::Result<Vec<_>, _>>()
+            {
+                return Layout::columns(found, &names, context);
+            }
+        }
+        let (groups, datasets) = file
+            .root_group()
+            .and_then(|g| g.member_names())
+            .unwrap_or_default();
+        Err(Error::unsupported(
+            context,
+            format!(
+                "no events found: expected /CD/events (Metavision) or the datasets events/x, events/y, events/t and events/p; the file holds groups [{}] and datasets [{}]",
+                groups.join(", "),
+                datasets.join(", ")
+            ),
+        ))
+    }
+
+    fn metavision(cd: Dataset, context: &str) -> Result<Layout> {
+        let Datatype::Compound { fields, .. } = cd.dtype() else {
+            return Err(Error::unsupported(
+                context,
+                "/CD/events is not a compound dataset of x, y, p and t",
+            ));
+        };
+        let find = |name: &str| -> Result<Field> {
+            let f = fields.iter().find(|f| f.name == name).ok_or_else(|| {
+                Error::unsupported(context, format!("/CD/events has no field `{name}`"))
+            })?;
+            Ok(Field {
+                dataset: 0,
+                offset: f.byte_offset as usize,
+                scalar: scalar_of(&f.datatype).ok_or_else(|| {
+                    Error::unsupported(
+                        context,
+                        format!("/CD/events field `{name}` is not an integer or float"),
+                    )
+                })?,
+            })
+        };
+        let fields = [find("t")?, find("x")?, find("y")?, find("p")?];
+        let rows = one_dimensional(&cd, "/CD/events", context)?;
+        check_record(&cd, "/CD/events", context)?;
+        Ok(Layout {
+            kind: LayoutKind::Metavision,
+            datasets: vec![cd],
+            fields,
+            rows,
+        })
+    }
+
+    fn columns(datasets: Vec<Dataset>, names: &[String; 4], context: &str) -> Result<Layout> {
+        let mut rows = None;
+        let mut fields = Vec::new();
+        for (k, (d, name)) in datasets.iter().zip(names).enumerate() {
+            let n = one_dimensional(d, name, context)?;
+            check_record(d, name, context)?;
+            if rows.is_some_and(|r| r != n) {
+                return Err(Error::corrupt(
+                    context,
+                    0,
+                    format!("the event columns differ in length ({name} has {n} values)"),
+                ));
+            }
+            rows = Some(n);
+            let scalar = scalar_of(d.dtype()).ok_or_else(|| {
+                Error::unsupported(context, format!("{name} is not an integer or float column"))
+            })?;
+            fields.push(Field {
+                dataset: k,
+                offset: 0,
+                scalar,
+            });
+        }
+        let fields: [Field; 4] = fields
+            .try_into()
+            .map_err(|_| Error::corrupt(context, 0, "expected four event columns"))?;
+        Ok(Layout {
+            kind: LayoutKind::Columns,
+            datasets,
+            fields,
+            rows: rows.unwrap_or(0),
+        })
+    }
+}
+
+/// The length of a 1-D dataset.
+fn one_dimensional(d: &Dataset, name: &str, context: &str) -> Result<u64> {
+    match d.shape() {
+        [n] => Ok(*n),
+        shape => Err(Error::unsupported(
+            context,
+            format!("{name} has shape {shape:?}; events are read from 1-D datasets"),
+        )),
+    }
+}
+
+/// Refuse records larger than [`MAX_RECORD_BYTES`].
+fn check_record(d: &Dataset, name: &str, context: &str) -> Result<()> {
+    match dtype_element_size(d.dtype()) {
+        Ok(size) if (1..=MAX_RECORD_BYTES).contains(&size) => Ok(()),
+        _ => Err(Error::unsupported(
+            context,
+            format!("{name} has records of an unsupported size or type"),
+        )),
+    }
+}
+
+/// The scalar type of an HDF5 integer, float or enumeration (h5py's bool) field.
+fn scalar_of(dtype: &Datatype) -> Option<Scalar> {
+    match dtype {
+        Datatype::FixedPoint {
+            size,
+            signed,
+            byte_order,
+        } if matches!(size, 1 | 2 | 4 | 8) => Some(Scalar {
+            kind: if *signed { Kind::Int } else { Kind::UInt },
+            size: *size as usize,
+            big_endian: *byte_order == ByteOrder::BigEndian,
+        }),
+        Datatype::FloatingPoint { size, byte_order } if matches!(size, 4 | 8) => Some(Scalar {
+            kind: Kind::Float,
+            size: *size as usize,
+            big_endian: *byte_order == ByteOrder::BigEndian,
+        }),
+        Datatype::Enum { base, .. } => scalar_of(base),
+        _ => None,
+    }
+}
+
+/// One record of a dataset as stored (up to [`MAX_RECORD_BYTES`]), so that any compound or
+/// scalar type is read as bytes and its fields taken out by offset.
+#[derive(Clone)]
+struct Record([u8; MAX_RECORD_BYTES]);
+
+impl H5Type for Record {
+    fn hdf5_type() -> Datatype {
+        Datatype::Opaque {
+            size: MAX_RECORD_BYTES as u32,
+            tag: "ebiv record".into(),
+        }
+    }
+
+    fn from_bytes(bytes: &[u8], _dtype: &Datatype) -> hdf5_reader::error::Result<Self> {
+        let mut r = [0u8; MAX_RECORD_BYTES];
+        let n = bytes.len().min(MAX_RECORD_BYTES);
+        r[..n].copy_from_slice(&bytes[..n]);
+        Ok(Record(r))
+    }
+
+    fn element_size(dtype: &Datatype) -> usize {
+        dtype_element_size(dtype).unwrap_or(MAX_RECORD_BYTES)
+    }
+}
+
+/// A sorted table from time to the first event at or after it, to seek by.
+#[derive(Debug, Clone, Default)]
+struct SeekTable {
+    /// (time, event index), both rising.
+    entries: Vec<(i64, u64)>,
+}
+
+impl SeekTable {
+    /// The index of an event at or before the first event at or after `t`.
+    fn start_for(&self, t: i64) -> Option<u64> {
+        let k = self.entries.partition_point(|&(time, _)| time <= t);
+        k.checked_sub(1).map(|k| self.entries[k].1)
+    }
+}
+
+struct Hdf5Reader {
+    layout: Layout,
+    metadata: Metadata,
+    report: DecodeReport,
+    context: String,
+    conv: Converter,
+    /// Added to every time stamp (DSEC `t_offset`).
+    t_offset: i64,
+    /// The next event to read.
+    next: u64,
+    /// Events per batch: whole chunks of the first dataset.
+    per_batch: u64,
+    triggers: Vec<Trigger>,
+    next_trigger: usize,
+    seek: SeekTable,
+    metavision_shift: Option<i64>,
+    /// Raw field values of the current batch (t, x, y, p).
+    raw: [Vec<u64>; 4],
+    bytes: Vec<u8>,
+}
+
+impl Hdf5Reader {
+    fn new(file: Hdf5File, layout: Layout, context: String, options: &ReadOptions) -> Result<Self> {
+        let mut report = DecodeReport::default();
+        let header = root_attributes(&file);
+        let format = Format::Hdf5;
+        let mut metadata = if layout.kind == LayoutKind::Metavision {
+            metadata_from_header(
+                &PropheseeHeader {
+                    entries: header,
+                    length: 0,
+                },
+                format,
+                options,
+            )
+        } else {
+            let mut m = Metadata::new(format);
+            m.header = header;
+            m.geometry = options.geometry;
+            m
+        };
+        if metadata.geometry.is_none() {
+            metadata
+                .notes
+                .push("the file does not state the sensor size; pass --geometry to set it".into());
+        }
+        let conv = TimeConv::for_field(&layout.fields[0].scalar, options.text.time_unit)
+            .map_err(|m| Error::unsupported(&context, m))?;
+        let (t_offset, seek, triggers, metavision_shift) = match layout.kind {
+            LayoutKind::Metavision => {
+                let shift = metadata
+                    .header_value("time_shift")
+                    .and_then(|v| v.trim().parse().ok());
+                if let Some(s) = shift {
+                    metadata.notes.push(format!(
+                        "the file records a Metavision time shift of {s} µs (its time origin); times are as stored, --metavision-time subtracts it"
+                    ));
+                }
+                let seek = metavision_index(&file, &context, &mut report);
+                let mut triggers = read_triggers(&file, &context, &mut report)?;
+                triggers.sort_by_key(|tr| tr.t);
+                (0, seek, triggers, shift)
+            }
+            LayoutKind::Columns => {
+                let offset = scalar_i64(&file, "t_offset")
+                    .or_else(|| scalar_i64(&file, "events/t_offset"))
+                    .unwrap_or(0);
+                if offset != 0 {
+                    metadata.notes.push(format!(
+                        "t_offset = {offset} µs is added to every time stamp"
+                    ));
+                }
+                (offset, dsec_index(&file, offset), Vec::new(), None)
+            }
+        };
+        let chunk = layout.datasets[0]
+            .chunks()
+            .and_then(|c| c.first().copied())
+            .map_or(16_384, u64::from)
+            .max(1);
+        let record = dtype_element_size(layout.datasets[0].dtype())
+            .unwrap_or(16)
+            .max(1) as u64;
+        let per_batch = (options.batch_bytes as u64 / record / chunk).max(1) * chunk;
+        Ok(Hdf5Reader {
+            conv: Converter::new(conv, metadata.geometry),
+            layout,
+            metadata,
+            report,
+            context,
+            t_offset,
+            next: 0,
+            per_batch,
+            triggers,
+            next_trigger: 0,
+            seek,
+            metavision_shift,
+            raw: Default::default(),
+            bytes: Vec::new(),
+        })
+    }
+
+    /// The raw values of the fields of events `first..end` into `self.raw`.
+    fn read_fields(&mut self, first: u64, end: u64) -> Result<()> {
+        let selection = SliceInfo {
+            selections: vec![SliceInfoElem::Slice {
+                start: first,
+                end,
+                step: 1,
+            }],
+        };
+        for (k, dataset) in self.layout.datasets.iter().enumerate() {
+            let records = dataset.read_slice::<Record>(&selection).map_err(|e| {
+                hdf5_error(
+                    &self.context,
+                    &format!("reading events {first}..{end} of {}", dataset.name()),
+                    e,
+                )
+            })?;
+            let size = dtype_element_size(dataset.dtype()).unwrap_or(MAX_RECORD_BYTES);
+            self.bytes.clear();
+            for r in records.iter() {
+                self.bytes.extend_from_slice(&r.0[..size]);
+            }
+            for (field, raw) in self.layout.fields.iter().zip(&mut self.raw) {
+                if field.dataset == k {
+                    gather(&self.bytes, size, field.offset, field.scalar, raw);
+                }
+            }
+        }
+        Ok(())
+    }
+
+    /// Hand out the triggers up to `until` (all that are left when `None`).
+    fn deliver_triggers(&mut self, until: Option<i64>, out: &mut EventBuffer) {
+        let rest = &self.triggers[self.next_trigger..];
+        let n = until.map_or(rest.len(), |t| rest.partition_point(|tr| tr.t <= t));
+        out.triggers.extend_from_slice(&rest[..n]);
+        self.next_trigger += n;
+    }
+}
+
+impl FormatReader for Hdf5Reader {
+    fn metadata(&self) -> &Metadata {
+        &self.metadata
+    }
+
+    fn next_batch(&mut self, out: &mut EventBuffer) -> Result<bool> {
+        if self.next >= self.layout.rows {
+            if self.next_trigger < self.triggers.len() {
+                self.deliver_triggers(None, out);
+                return Ok(true);
+            }
+            return Ok(false);
+        }
+        let first = self.next;
+        let end = (first + self.per_batch).min(self.layout.rows);
+        self.read_fields(first, end)?;
+        let [st, sx, sy, sp] = self.layout.fields.map(|f| f.scalar);
+        let [rt, rx, ry, rp] = &self.raw;
+        out.reserve(rt.len());
+        for (i, (((&t, &x), &y), &p)) in rt.iter().zip(rx).zip(ry).zip(rp).enumerate() {
+            let outcome = self
+                .conv
+                .push(st.num(t), sx.num(x), sy.num(y), sp.num(p), out);
+            if outcome != Outcome::Kept {
+                count_outcome(outcome, &mut self.report, &self.context, first + i as u64);
+            }
+        }
+        if self.t_offset != 0 {
+            let offset = self.t_offset;
+            out.t.iter_mut().for_each(|t| *t = t.saturating_add(offset));
+        }
+        self.next = end;
+        let last = out.t.last().copied();
+        if last.is_some() {
+            self.deliver_triggers(last, out);
+        }
+        Ok(true)
+    }
+
+    fn report(&self) -> &DecodeReport {
+        &self.report
+    }
+
+    fn metavision_time_shift(&self) -> Option<i64> {
+        self.metavision_shift
+    }
+
+    fn seek_near(&mut self, t_us: i64) -> Result<bool> {
+        let Some(start) = self.seek.start_for(t_us) else {
+            return Ok(false);
+        };
+        if start <= self.next || start >= self.layout.rows {
+            return Ok(false);
+        }
+        self.next = start;
+        let skipped = self.triggers[self.next_trigger..].partition_point(|tr| tr.t < t_us);
+        self.next_trigger += skipped;
+        Ok(true)
+    }
+}
+
+/// The root attributes as header entries: strings as stored, numbers written out.
+fn root_attributes(file: &Hdf5File) -> Vec<(String, String)> {
+    let Ok(root) = file.root_group() else {
+        return Vec::new();
+    };
+    let mut entries: Vec<(String, String)> = root
+        .attributes()
+        .unwrap_or_default()
+        .into_iter()
+        .filter_map(|a| {
+            let value = a.read_string().ok().or_else(|| {
+                let v = a.read_as_f64().ok()?;
+                Some(if v.fract() == 0.0 && v.abs() < 9e15 {
+                    format!("{}", v as i64)
+                } else {
+                    format!("{v}")
+                })
+            })?;
+            Some((a.name.clone(), value))
+        })
+        .collect();
+    entries.sort();
+    entries
+}
+
+/// A scalar integer dataset (DSEC `t_offset`).
+fn scalar_i64(file: &Hdf5File, path: &str) -> Option<i64> {
+    let d = file.dataset(path).ok()?;
+    if d.num_elements().ok()? != 1 {
+        return None;
+    }
+    let scalar = scalar_of(d.dtype())?;
+    let bytes = d.read_raw_bytes().ok()?;
+    let mut raw = Vec::new();
+    gather(&bytes, scalar.size, 0, scalar, &mut raw);
+    match scalar.num(*raw.first()?) {
+        super::npy::Num::I(v) => Some(v),
+        super::npy::Num::U(v) => i64::try_from(v).ok(),
+        super::npy::Num::F(_) => None,
+    }
+}
+
+/// The values of a small 1-D integer dataset, or of one field of a compound one.
+fn integer_column(d: &Dataset, field: Option<&str>, limit: u64) -> Option<Vec<i64>> {
+    let n = one_dimensional(d, "", "").ok()?;
+    if n > limit {
+        return None;
+    }
+    let (offset, scalar) = match (d.dtype(), field) {
+        (Datatype::Compound { fields, .. }, Some(name)) => {
+            let f = fields.iter().find(|f| f.name == name)?;
+            (f.byte_offset as usize, scalar_of(&f.datatype)?)
+        }
+        (dtype, None) => (0, scalar_of(dtype)?),
+        _ => return None,
+    };
+    if scalar.kind == Kind::Float {
+        return None;
+    }
+    let size = dtype_element_size(d.dtype()).ok()?;
+    let bytes = d.read_raw_bytes().ok()?;
+    let mut raw = Vec::new();
+    gather(&bytes, size, offset, scalar, &mut raw);
+    raw.into_iter()
+        .map(|v| match scalar.num(v) {
+            super::npy::Num::I(i) => Some(i),
+            super::npy::Num::U(u) => i64::try_from(u).ok(),
+            super::npy::Num::F(_) => None,
+        })
+        .collect()
+}
+
+/// The seek table of `/CD/indexes`: rows `(id, ts)` with `ts` relative to the first event
+/// and the `offset` attribute `−t_first` (formats.md §6.2). An index that is not rising in
+/// both is not used (a warning says so).
+fn metavision_index(file: &Hdf5File, context: &str, report: &mut DecodeReport) -> SeekTable {
+    let Ok(d) = file.dataset("/CD/indexes") else {
+        return SeekTable::default();
+    };
+    let offset = d.attribute("offset").ok().and_then(|a| {
+        a.read_string()
+            .ok()
+            .and_then(|s| s.trim().parse::<i64>().ok())
+    });
+    let (Some(ids), Some(ts), Some(offset)) = (
+        integer_column(&d, Some("id"), MAX_INDEX_ENTRIES),
+        integer_column(&d, Some("ts"), MAX_INDEX_ENTRIES),
+        offset,
+    ) else {
+        return SeekTable::default();
+    };
+    let entries: Vec<(i64, u64)> = ts
+        .iter()
+        .zip(&ids)
+        .filter(|(&t, _)| t >= 0)
+        .filter_map(|(&t, &id)| Some((t.checked_sub(offset)?, u64::try_from(id).ok()?)))
+        .collect();
+    checked_table(entries, context, "/CD/indexes", report)
+}
+
+/// The seek table of a DSEC `ms_to_idx`: entry `k` is the first event at or after `k` ms.
+fn dsec_index(file: &Hdf5File, t_offset: i64) -> SeekTable {
+    let Some(ids) = file
+        .dataset("ms_to_idx")
+        .ok()
+        .and_then(|d| integer_column(&d, None, MAX_INDEX_ENTRIES))
+    else {
+        return SeekTable::default();
+    };
+    let entries = ids
+        .iter()
+        .enumerate()
+        .filter_map(|(k, &id)| {
+            let t = (k as i64).checked_mul(1000)?.checked_add(t_offset)?;
+            Some((t, u64::try_from(id).ok()?))
+        })
+        .collect();
+    checked_table(entries, "", "ms_to_idx", &mut DecodeReport::default())
+}
+
+fn checked_table(
+    entries: Vec<(i64, u64)>,
+    context: &str,
+    name: &str,
+    report: &mut DecodeReport,
+) -> SeekTable {
+    let rising = entries
+        .windows(2)
+        .all(|w| w[0].0 <= w[1].0 && w[0].1 <= w[1].1);
+    if rising {
+        SeekTable { entries }
+    } else {
+        report.warn(format!(
+            "{context}: {name} is not in time order and is not used to seek"
+        ));
+        SeekTable::default()
+    }
+}
+
+/// The trigger edges of `/EXT_TRIGGER/events` (`p`, `t`, `id`), in file order.
+fn read_triggers(
+    file: &Hdf5File,
+    context: &str,
+    report: &mut DecodeReport,
+) -> Result<Vec<Trigger>> {
+    let Ok(d) = file.dataset("/EXT_TRIGGER/events") else {
+        return Ok(Vec::new());
+    };
+    let n = one_dimensional(&d, "/EXT_TRIGGER/events", context)?;
+    if n == 0 {
+        return Ok(Vec::new());
+    }
+    if n > MAX_TRIGGERS {
+        return Err(Error::unsupported(
+            context,
+            format!("/EXT_TRIGGER/events holds {n} edges; at most {MAX_TRIGGERS} are read"),
+        ));
+    }
+    let column = |name| {
+        integer_column(&d, Some(name), MAX_TRIGGERS).ok_or_else(|| {
+            Error::unsupported(
+                context,
+                format!("/EXT_TRIGGER/events has no integer field `{name}` (or cannot be read)"),
+            )
+        })
+    };
+    let (p, t, id) = (column("p")?, column("t")?, column("id")?);
+    let mut triggers = Vec::with_capacity(t.len());
+    for (k, ((&p, &t), &id)) in p.iter().zip(&t).zip(&id).enumerate() {
+        match u8::try_from(id) {
+            Ok(channel) => triggers.push(Trigger {
+                t,
+                channel,
+                value: u8::from(p > 0),
+            }),
+            Err(_) => {
+                report.malformed += 1;
+                report.warn(format!(
+                    "{context}: trigger {k} skipped: channel {id} is not 0–255"
+                ));
+            }
+        }
+    }
+    Ok(triggers)
+}
+
+#[cfg(test)]
+mod tests;
