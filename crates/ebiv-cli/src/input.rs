@@ -14,7 +14,7 @@ pub struct InputArgs {
     #[arg(long, value_name = "ENC", value_parser = parse_encoding)]
     pub raw_encoding: Option<RawEncoding>,
     /// Force the input format instead of detecting it: raw, evt2, evt21, evt3, dat, aedat4,
-    /// aedat2, aedat31, es, csv, npy, npz, evt.
+    /// aedat2, aedat31, es, csv, npy, npz, evt, hdf5.
     #[arg(long, value_name = "FMT", value_parser = parse_format)]
     pub format: Option<Format>,
     /// Subtract the Metavision SDK time shift, so times match what Metavision tools print.

@@ -83,13 +83,6 @@ impl EcfEvents {
     pub fn is_empty(&self) -> bool {
         self.t.is_empty()
     }
-
-    fn clear(&mut self) {
-        self.x.clear();
-        self.y.clear();
-        self.p.clear();
-        self.t.clear();
-    }
 }
 
 /// How the coordinates of a buffer are stored ([`encode_with`]).
@@ -150,9 +143,114 @@ pub fn declared_events(bytes: &[u8]) -> Option<usize> {
     Some((u32::from_le_bytes(head) >> 2) as usize)
 }
 
+/// Where a decoded buffer goes: events written by index, `0..n` after [`Sink::start`].
+trait Sink {
+    /// Room for `n` events (and the codec's padding past them).
+    fn start(&mut self, n: usize);
+    fn t(&mut self, i: usize, t: i64);
+    fn x(&mut self, i: usize, x: u16);
+    fn y(&mut self, i: usize, y: u16);
+    fn p(&mut self, i: usize, p: u8);
+    /// Keep events `0..n` only.
+    fn finish(&mut self, n: usize);
+}
+
+/// Extra room past the events: a masked x word or a packed group may write up to 5 (or 3)
+/// values past the last event (the writer's padding, ignored).
+const PAD: usize = 5;
+
+impl Sink for EcfEvents {
+    fn start(&mut self, n: usize) {
+        self.x.clear();
+        self.y.clear();
+        self.p.clear();
+        self.t.clear();
+        self.x.resize(n + PAD, 0);
+        self.y.resize(n + PAD, 0);
+        self.p.resize(n + PAD, 0);
+        self.t.resize(n + PAD, 0);
+    }
+    fn t(&mut self, i: usize, t: i64) {
+        self.t[i] = t;
+    }
+    fn x(&mut self, i: usize, x: u16) {
+        self.x[i] = x;
+    }
+    fn y(&mut self, i: usize, y: u16) {
+        self.y[i] = y;
+    }
+    fn p(&mut self, i: usize, p: u8) {
+        self.p[i] = p;
+    }
+    fn finish(&mut self, n: usize) {
+        self.x.truncate(n);
+        self.y.truncate(n);
+        self.p.truncate(n);
+        self.t.truncate(n);
+    }
+}
+
+/// The 16-byte records of `/CD/events`, at least `min` of them (zero records past the
+/// events).
+struct Records {
+    bytes: Vec<u8>,
+    min: usize,
+}
+
+impl Records {
+    #[inline(always)]
+    fn put(&mut self, i: usize, at: usize, value: &[u8]) {
+        let start = i * RECORD_BYTES + at;
+        self.bytes[start..start + value.len()].copy_from_slice(value);
+    }
+}
+
+impl Sink for Records {
+    fn start(&mut self, n: usize) {
+        self.bytes.clear();
+        self.bytes.resize((n.max(self.min) + PAD) * RECORD_BYTES, 0);
+    }
+    fn t(&mut self, i: usize, t: i64) {
+        self.put(i, 8, &t.to_le_bytes());
+    }
+    fn x(&mut self, i: usize, x: u16) {
+        self.put(i, 0, &x.to_le_bytes());
+    }
+    fn y(&mut self, i: usize, y: u16) {
+        self.put(i, 2, &y.to_le_bytes());
+    }
+    fn p(&mut self, i: usize, p: u8) {
+        self.put(i, 4, &[p]);
+    }
+    fn finish(&mut self, n: usize) {
+        self.bytes.truncate(n.max(self.min) * RECORD_BYTES);
+        // Padding written past the events of a full-size chunk is not an event.
+        self.bytes[n * RECORD_BYTES..].fill(0);
+    }
+}
+
 /// Decode one ECF buffer into `out` (cleared first).
 pub fn decode(bytes: &[u8], out: &mut EcfEvents) -> Result<(), EcfError> {
-    out.clear();
+    let n = decode_into(bytes, out)?;
+    out.finish(n);
+    Ok(())
+}
+
+/// Decode one ECF buffer into the 16-byte records of `/CD/events` (`x u16, y u16, p i16,
+/// t i64`, little-endian), padded with zero records to `records` when given (an HDF5
+/// chunk's full size).
+pub fn decode_records(bytes: &[u8], records: Option<usize>) -> Result<Vec<u8>, EcfError> {
+    let mut out = Records {
+        bytes: Vec::new(),
+        min: records.unwrap_or(0),
+    };
+    let n = decode_into(bytes, &mut out)?;
+    out.finish(n);
+    Ok(out.bytes)
+}
+
+/// Decode one buffer into `out`; returns its number of events.
+fn decode_into(bytes: &[u8], out: &mut impl Sink) -> Result<usize, EcfError> {
     let mut c = Cursor { bytes, at: 0 };
     let info = c.u32("event count")?;
     let n = (info >> 2) as usize;
@@ -162,20 +260,21 @@ pub fn decode(bytes: &[u8], out: &mut EcfEvents) -> Result<(), EcfError> {
             format!("the buffer declares {n} events; ECF holds at most {MAX_EVENTS}"),
         );
     }
+    out.start(n);
     let (all_packed, x_and_p_packed) = (info & 2 != 0, info & 1 != 0);
-    decode_times(&mut c, n, &mut out.t)?;
+    decode_times(&mut c, n, out)?;
     if all_packed {
         decode_all_packed(&mut c, n, out)?;
     } else {
-        decode_y_runs(&mut c, n, &mut out.y)?;
+        decode_y_runs(&mut c, n, out)?;
         if x_and_p_packed {
             decode_x_and_p_packed(&mut c, n, out)?;
         } else {
-            decode_masked_x(&mut c, n, &mut out.x)?;
-            decode_p_runs(&mut c, n, &mut out.p)?;
+            decode_masked_x(&mut c, n, out)?;
+            decode_p_runs(&mut c, n, out)?;
         }
     }
-    Ok(())
+    Ok(n)
 }
 
 /// A run's length: the low bits, or the `u16` after them when they are all ones.
@@ -203,10 +302,10 @@ fn check_run(done: usize, len: usize, n: usize, at: usize, what: &str) -> Result
     Ok(())
 }
 
-fn decode_times(c: &mut Cursor<'_>, n: usize, t: &mut Vec<i64>) -> Result<(), EcfError> {
+fn decode_times(c: &mut Cursor<'_>, n: usize, out: &mut impl Sink) -> Result<(), EcfError> {
     let mut now = c.u64("time origin")?;
-    t.reserve(n);
-    while t.len() < n {
+    let mut i = 0;
+    while i < n {
         let at = c.at;
         let byte = c.u8("time stamps")?;
         let (step, low) = (byte >> 4, (byte & 0xF) as usize);
@@ -226,58 +325,69 @@ fn decode_times(c: &mut Cursor<'_>, n: usize, t: &mut Vec<i64>) -> Result<(), Ec
         }
         now = now.wrapping_add(u64::from(step));
         let len = run_length(c, low, 0xF, "time-stamp run length")?;
-        check_run(t.len(), len, n, at, "time stamps")?;
-        t.resize(t.len() + len, now as i64);
+        check_run(i, len, n, at, "time stamps")?;
+        for k in i..i + len {
+            out.t(k, now as i64);
+        }
+        i += len;
     }
     Ok(())
 }
 
-fn decode_y_runs(c: &mut Cursor<'_>, n: usize, y: &mut Vec<u16>) -> Result<(), EcfError> {
-    y.reserve(n);
-    while y.len() < n {
+fn decode_y_runs(c: &mut Cursor<'_>, n: usize, out: &mut impl Sink) -> Result<(), EcfError> {
+    let mut i = 0;
+    while i < n {
         let at = c.at;
         let word = c.u16("y runs")?;
         let len = run_length(c, (word & 0x1F) as usize, 0x1F, "y run length")?;
-        check_run(y.len(), len, n, at, "rows")?;
-        y.resize(y.len() + len, word >> 5);
+        check_run(i, len, n, at, "rows")?;
+        for k in i..i + len {
+            out.y(k, word >> 5);
+        }
+        i += len;
     }
     Ok(())
 }
 
-fn decode_p_runs(c: &mut Cursor<'_>, n: usize, p: &mut Vec<u8>) -> Result<(), EcfError> {
-    p.reserve(n);
-    while p.len() < n {
+fn decode_p_runs(c: &mut Cursor<'_>, n: usize, out: &mut impl Sink) -> Result<(), EcfError> {
+    let mut i = 0;
+    while i < n {
         let at = c.at;
         let byte = c.u8("polarity runs")?;
         let len = run_length(c, (byte & 0x7F) as usize, 0x7F, "polarity run length")?;
-        check_run(p.len(), len, n, at, "polarities")?;
-        p.resize(p.len() + len, byte >> 7);
+        check_run(i, len, n, at, "polarities")?;
+        for k in i..i + len {
+            out.p(k, byte >> 7);
+        }
+        i += len;
     }
     Ok(())
 }
 
-fn decode_masked_x(c: &mut Cursor<'_>, n: usize, x: &mut Vec<u16>) -> Result<(), EcfError> {
-    x.reserve(n + 5);
-    while x.len() < n {
+fn decode_masked_x(c: &mut Cursor<'_>, n: usize, out: &mut impl Sink) -> Result<(), EcfError> {
+    let mut i = 0;
+    while i < n {
         let word = c.u16("masked x words")?;
         let base = word >> 5;
-        x.push(base);
+        // The last word may mark columns past the buffer's events (the writer's padding,
+        // within the sink's room past them).
+        let mut put = |i: &mut usize, x: u16| -> Result<(), EcfError> {
+            if x > MAX_COORDINATE && *i < n {
+                return fail(
+                    c.at,
+                    format!("masked column {x} of event {i} passes {MAX_COORDINATE}"),
+                );
+            }
+            out.x(*i, x);
+            *i += 1;
+            Ok(())
+        };
+        put(&mut i, base)?;
         for j in 0..5u16 {
             if word & (1 << (4 - j)) != 0 {
-                x.push(base + j + 1);
+                put(&mut i, base + j + 1)?;
             }
         }
-    }
-    // The last word may mark columns past the buffer's events (the writer's padding).
-    x.truncate(n);
-    if let Some(i) = x.iter().position(|&v| v > MAX_COORDINATE) {
-        return fail(
-            c.at,
-            format!(
-                "masked column {} of event {i} passes {MAX_COORDINATE}",
-                x[i]
-            ),
-        );
     }
     Ok(())
 }
@@ -285,11 +395,9 @@ fn decode_masked_x(c: &mut Cursor<'_>, n: usize, x: &mut Vec<u16>) -> Result<(),
 fn decode_x_and_p_packed(
     c: &mut Cursor<'_>,
     n: usize,
-    out: &mut EcfEvents,
+    out: &mut impl Sink,
 ) -> Result<(), EcfError> {
-    out.x.reserve(n + 3);
-    out.p.reserve(n + 3);
-    for _ in 0..n.div_ceil(4) {
+    for g in 0..n.div_ceil(4) {
         let w = c.take(6, "packed x and polarities")?;
         let [a, b, d] = [0, 2, 4].map(|k| u16::from_le_bytes([w[k], w[k + 1]]));
         let values = [
@@ -298,21 +406,16 @@ fn decode_x_and_p_packed(
             (b & 0xFF) | ((d >> 12) << 8),
             d & 0xFFF,
         ];
-        for v in values {
-            out.x.push(v >> 1);
-            out.p.push((v & 1) as u8);
+        for (j, v) in values.into_iter().enumerate() {
+            out.x(4 * g + j, v >> 1);
+            out.p(4 * g + j, (v & 1) as u8);
         }
     }
-    out.x.truncate(n);
-    out.p.truncate(n);
     Ok(())
 }
 
-fn decode_all_packed(c: &mut Cursor<'_>, n: usize, out: &mut EcfEvents) -> Result<(), EcfError> {
-    out.x.reserve(n + 3);
-    out.y.reserve(n + 3);
-    out.p.reserve(n + 3);
-    for _ in 0..n.div_ceil(4) {
+fn decode_all_packed(c: &mut Cursor<'_>, n: usize, out: &mut impl Sink) -> Result<(), EcfError> {
+    for g in 0..n.div_ceil(4) {
         let w = c.take(12, "packed coordinates")?;
         let [a, b, d] = [0, 4, 8].map(|k| u32::from_le_bytes([w[k], w[k + 1], w[k + 2], w[k + 3]]));
         let values = [
@@ -321,37 +424,14 @@ fn decode_all_packed(c: &mut Cursor<'_>, n: usize, out: &mut EcfEvents) -> Resul
             (b & 0xFFFF) | ((d >> 24) << 16),
             d & 0xFF_FFFF,
         ];
-        for v in values {
-            out.y.push(((v >> 12) & 0x7FF) as u16);
-            out.x.push(((v >> 1) & 0x7FF) as u16);
-            out.p.push((v & 1) as u8);
+        for (j, v) in values.into_iter().enumerate() {
+            let i = 4 * g + j;
+            out.y(i, ((v >> 12) & 0x7FF) as u16);
+            out.x(i, ((v >> 1) & 0x7FF) as u16);
+            out.p(i, (v & 1) as u8);
         }
     }
-    out.x.truncate(n);
-    out.y.truncate(n);
-    out.p.truncate(n);
     Ok(())
-}
-
-/// Decode one ECF buffer into the 16-byte records of `/CD/events` (`x u16, y u16, p i16,
-/// t i64`, little-endian), padded with zero records to `records` when given (an HDF5
-/// chunk's full size).
-pub fn decode_records(bytes: &[u8], records: Option<usize>) -> Result<Vec<u8>, EcfError> {
-    let mut events = EcfEvents::default();
-    decode(bytes, &mut events)?;
-    let total = records.unwrap_or(0).max(events.len());
-    let mut out = vec![0u8; total * RECORD_BYTES];
-    for (i, rec) in out
-        .chunks_exact_mut(RECORD_BYTES)
-        .take(events.len())
-        .enumerate()
-    {
-        rec[0..2].copy_from_slice(&events.x[i].to_le_bytes());
-        rec[2..4].copy_from_slice(&events.y[i].to_le_bytes());
-        rec[4..6].copy_from_slice(&i16::from(events.p[i]).to_le_bytes());
-        rec[8..16].copy_from_slice(&events.t[i].to_le_bytes());
-    }
-    Ok(out)
 }
 
 /// Encode events into one ECF buffer with the smallest coordinate layout.

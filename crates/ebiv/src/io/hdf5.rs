@@ -70,7 +70,10 @@ fn open_reader(
     );
     let file = Hdf5File::from_storage_with_options(
         Arc::new(storage),
-        OpenOptions::default().with_filter_registry(filters),
+        // Batches are whole chunks read once, in order: a chunk cache would only copy them.
+        OpenOptions::default()
+            .with_filter_registry(filters)
+            .with_chunk_cache_bytes(0),
     )
     .map_err(|e| hdf5_error(&context, "not a readable HDF5 file", e))?;
     let layout = Layout::find(&file, &context)?;
@@ -93,6 +96,9 @@ struct Layout {
     fields: [Field; 4],
     /// Events stored.
     rows: u64,
+    /// Metavision's own 16-byte record (`x u16 @0, y u16 @2, p i16 @4, t i64 @8`,
+    /// little-endian), converted without the general field machinery.
+    standard_cd: bool,
 }
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -162,11 +168,27 @@ impl Layout {
         let fields = [find("t")?, find("x")?, find("y")?, find("p")?];
         let rows = one_dimensional(&cd, "/CD/events", context)?;
         check_record(&cd, "/CD/events", context)?;
+        let little = |kind, size| Scalar {
+            kind,
+            size,
+            big_endian: false,
+        };
+        let standard_cd = dtype_element_size(cd.dtype()).is_ok_and(|s| s == 16)
+            && [
+                (8, little(Kind::Int, 8)),
+                (0, little(Kind::UInt, 2)),
+                (2, little(Kind::UInt, 2)),
+                (4, little(Kind::Int, 2)),
+            ]
+            .iter()
+            .zip(&fields)
+            .all(|(&(offset, scalar), f)| f.offset == offset && f.scalar == scalar);
         Ok(Layout {
             kind: LayoutKind::Metavision,
             datasets: vec![cd],
             fields,
             rows,
+            standard_cd,
         })
     }
 
@@ -201,6 +223,7 @@ impl Layout {
             datasets,
             fields,
             rows: rows.unwrap_or(0),
+            standard_cd: false,
         })
     }
 }
@@ -249,28 +272,85 @@ fn scalar_of(dtype: &Datatype) -> Option<Scalar> {
     }
 }
 
-/// One record of a dataset as stored (up to [`MAX_RECORD_BYTES`]), so that any compound or
-/// scalar type is read as bytes and its fields taken out by offset.
-#[derive(Clone)]
-struct Record([u8; MAX_RECORD_BYTES]);
+/// One record of a dataset as stored, `N` bytes, so that any compound or scalar type is
+/// read as bytes and its fields taken out by offset. The HDF5 reader copies the stored bytes
+/// straight into a vector of them.
+#[derive(Clone, Copy)]
+#[repr(transparent)]
+struct Record<const N: usize>([u8; N]);
 
-impl H5Type for Record {
+impl<const N: usize> H5Type for Record<N> {
     fn hdf5_type() -> Datatype {
         Datatype::Opaque {
-            size: MAX_RECORD_BYTES as u32,
+            size: N as u32,
             tag: "ebiv record".into(),
         }
     }
 
     fn from_bytes(bytes: &[u8], _dtype: &Datatype) -> hdf5_reader::error::Result<Self> {
-        let mut r = [0u8; MAX_RECORD_BYTES];
-        let n = bytes.len().min(MAX_RECORD_BYTES);
+        let mut r = [0u8; N];
+        let n = bytes.len().min(N);
         r[..n].copy_from_slice(&bytes[..n]);
         Ok(Record(r))
     }
 
-    fn element_size(dtype: &Datatype) -> usize {
-        dtype_element_size(dtype).unwrap_or(MAX_RECORD_BYTES)
+    fn element_size(_dtype: &Datatype) -> usize {
+        N
+    }
+
+    fn native_copy_compatible(dtype: &Datatype) -> bool {
+        dtype_element_size(dtype).is_ok_and(|size| size == N)
+    }
+}
+
+/// The rows `first..end` of a 1-D dataset.
+fn rows(first: u64, end: u64) -> SliceInfo {
+    SliceInfo {
+        selections: vec![SliceInfoElem::Slice {
+            start: first,
+            end,
+            step: 1,
+        }],
+    }
+}
+
+/// The records `selection` of `dataset` as bytes, `N` per record, appended to `bytes`.
+fn read_records<const N: usize>(
+    dataset: &Dataset,
+    selection: &SliceInfo,
+    bytes: &mut Vec<u8>,
+) -> hdf5_reader::error::Result<()> {
+    let records = dataset.read_slice::<Record<N>>(selection)?;
+    bytes.reserve(records.len() * N);
+    for r in records.iter() {
+        bytes.extend_from_slice(&r.0);
+    }
+    Ok(())
+}
+
+/// The records `selection` of `dataset` as bytes, appended to `bytes`, for records of
+/// 1 to [`MAX_RECORD_BYTES`] bytes.
+fn read_any_records(
+    dataset: &Dataset,
+    selection: &SliceInfo,
+    size: usize,
+    bytes: &mut Vec<u8>,
+) -> hdf5_reader::error::Result<()> {
+    match size {
+        1 => read_records::<1>(dataset, selection, bytes),
+        2 => read_records::<2>(dataset, selection, bytes),
+        4 => read_records::<4>(dataset, selection, bytes),
+        8 => read_records::<8>(dataset, selection, bytes),
+        16 => read_records::<16>(dataset, selection, bytes),
+        24 => read_records::<24>(dataset, selection, bytes),
+        _ => {
+            // Other sizes: one padded record each, cut to size.
+            let records = dataset.read_slice::<Record<MAX_RECORD_BYTES>>(selection)?;
+            for r in records.iter() {
+                bytes.extend_from_slice(&r.0[..size.min(MAX_RECORD_BYTES)]);
+            }
+            Ok(())
+        }
     }
 }
 
@@ -337,6 +417,8 @@ impl Hdf5Reader {
         }
         let conv = TimeConv::for_field(&layout.fields[0].scalar, options.text.time_unit)
             .map_err(|m| Error::unsupported(&context, m))?;
+        let mut layout = layout;
+        layout.standard_cd &= conv == TimeConv::Ratio(1, 1);
         let (t_offset, seek, triggers, metavision_shift) = match layout.kind {
             LayoutKind::Metavision => {
                 let shift = metadata
@@ -393,26 +475,17 @@ impl Hdf5Reader {
 
     /// The raw values of the fields of events `first..end` into `self.raw`.
     fn read_fields(&mut self, first: u64, end: u64) -> Result<()> {
-        let selection = SliceInfo {
-            selections: vec![SliceInfoElem::Slice {
-                start: first,
-                end,
-                step: 1,
-            }],
-        };
+        let selection = rows(first, end);
         for (k, dataset) in self.layout.datasets.iter().enumerate() {
-            let records = dataset.read_slice::<Record>(&selection).map_err(|e| {
+            let size = dtype_element_size(dataset.dtype()).unwrap_or(MAX_RECORD_BYTES);
+            self.bytes.clear();
+            read_any_records(dataset, &selection, size, &mut self.bytes).map_err(|e| {
                 hdf5_error(
                     &self.context,
                     &format!("reading events {first}..{end} of {}", dataset.name()),
                     e,
                 )
             })?;
-            let size = dtype_element_size(dataset.dtype()).unwrap_or(MAX_RECORD_BYTES);
-            self.bytes.clear();
-            for r in records.iter() {
-                self.bytes.extend_from_slice(&r.0[..size]);
-            }
             for (field, raw) in self.layout.fields.iter().zip(&mut self.raw) {
                 if field.dataset == k {
                     gather(&self.bytes, size, field.offset, field.scalar, raw);
@@ -445,18 +518,26 @@ impl FormatReader for Hdf5Reader {
             return Ok(false);
         }
         let first = self.next;
-        let end = (first + self.per_batch).min(self.layout.rows);
-        self.read_fields(first, end)?;
-        let [st, sx, sy, sp] = self.layout.fields.map(|f| f.scalar);
-        let [rt, rx, ry, rp] = &self.raw;
-        out.reserve(rt.len());
-        for (i, (((&t, &x), &y), &p)) in rt.iter().zip(rx).zip(ry).zip(rp).enumerate() {
-            let outcome = self
-                .conv
-                .push(st.num(t), sx.num(x), sy.num(y), sp.num(p), out);
-            if outcome != Outcome::Kept {
-                count_outcome(outcome, &mut self.report, &self.context, first + i as u64);
+        // Whole chunks per batch, also after a seek lands inside one (each chunk is decoded
+        // once: there is no chunk cache).
+        let end = ((first / self.per_batch + 1) * self.per_batch).min(self.layout.rows);
+        if self.layout.standard_cd {
+            let records = self.layout.datasets[0]
+                .read_slice::<Record<16>>(&rows(first, end))
+                .map_err(|e| {
+                    hdf5_error(
+                        &self.context,
+                        &format!("reading events {first}..{end} of /CD/events"),
+                        e,
+                    )
+                })?;
+            match records.as_slice() {
+                Some(contiguous) => self.convert_standard(contiguous.iter(), out),
+                None => self.convert_standard(records.iter(), out),
             }
+        } else {
+            self.read_fields(first, end)?;
+            self.convert_fields(first, out);
         }
         if self.t_offset != 0 {
             let offset = self.t_offset;
@@ -489,6 +570,47 @@ impl FormatReader for Hdf5Reader {
         let skipped = self.triggers[self.next_trigger..].partition_point(|tr| tr.t < t_us);
         self.next_trigger += skipped;
         Ok(true)
+    }
+}
+
+impl Hdf5Reader {
+    /// Events from the raw field values of the batch starting at event `first`.
+    fn convert_fields(&mut self, first: u64, out: &mut EventBuffer) {
+        let [st, sx, sy, sp] = self.layout.fields.map(|f| f.scalar);
+        let [rt, rx, ry, rp] = &self.raw;
+        out.reserve(rt.len());
+        for (i, (((&t, &x), &y), &p)) in rt.iter().zip(rx).zip(ry).zip(rp).enumerate() {
+            let outcome = self
+                .conv
+                .push(st.num(t), sx.num(x), sy.num(y), sp.num(p), out);
+            if outcome != Outcome::Kept {
+                count_outcome(outcome, &mut self.report, &self.context, first + i as u64);
+            }
+        }
+    }
+
+    /// Events from Metavision's 16-byte records: pixels outside the sensor are counted and
+    /// dropped, polarity is ON when `p > 0` (as [`Converter`] does).
+    fn convert_standard<'a>(
+        &mut self,
+        records: impl ExactSizeIterator<Item = &'a Record<16>>,
+        out: &mut EventBuffer,
+    ) {
+        let (width, height) = (self.conv.width, self.conv.height);
+        out.reserve(records.len());
+        let mut outside = 0u64;
+        for Record(r) in records {
+            let x = u16::from_le_bytes([r[0], r[1]]);
+            let y = u16::from_le_bytes([r[2], r[3]]);
+            let p = i16::from_le_bytes([r[4], r[5]]);
+            let t = i64::from_le_bytes([r[8], r[9], r[10], r[11], r[12], r[13], r[14], r[15]]);
+            if u32::from(x) < width && u32::from(y) < height {
+                out.push(t, x, y, u8::from(p > 0));
+            } else {
+                outside += 1;
+            }
+        }
+        self.report.out_of_range += outside;
     }
 }
 

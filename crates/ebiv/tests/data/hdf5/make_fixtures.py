@@ -2,6 +2,12 @@
 
     python make_fixtures.py        # needs numpy and h5py
 
+or writes any recording as a Metavision HDF5 file with ECF-compressed chunks of 16 384 events,
+each in its smallest coordinate layout (for `ebiv bench decode`):
+
+    ebiv convert REC events.npz
+    python make_fixtures.py --from events.npz --geometry 1280x720 -o REC.hdf5
+
 Each file comes with `<name>.expected.npz`: the events it holds (columns t, x, y, p) in file
 order, which the Rust tests compare with what ebiv decodes.
 
@@ -135,10 +141,14 @@ def indexes(t):
     return np.array(rows, INDEX)
 
 
-def metavision(path, t, x, y, p, compressed):
-    chunk = 1000
+def smallest(x, y, p, t):
+    """The ECF buffer of the smallest coordinate layout."""
+    return min((ecf_encode(x, y, p, t, layout) for layout in range(3)), key=len)
+
+
+def metavision(path, t, x, y, p, compressed, chunk=1000, encode=None, geometry="640x480"):
     with h5py.File(path, "w") as f:
-        f.attrs["geometry"] = "640x480"
+        f.attrs["geometry"] = geometry
         f.attrs["serial_number"] = "fixture"
         f.attrs["format"] = "EVT3"
         f.attrs["time_shift"] = str(int(t[0]))
@@ -152,7 +162,8 @@ def metavision(path, t, x, y, p, compressed):
             dsid = h5py.h5d.create(cd.id, b"events", tid, space, dcpl=dcpl)
             for k, start in enumerate(range(0, len(t), chunk)):
                 s = slice(start, start + chunk)
-                buf = ecf_encode(x[s], y[s], p[s], t[s], k % 3)
+                buf = (encode(x[s], y[s], p[s], t[s]) if encode
+                       else ecf_encode(x[s], y[s], p[s], t[s], k % 3))
                 dsid.write_direct_chunk((start,), buf, filter_mask=0)
         else:
             rec = np.zeros(len(t), CD)
@@ -184,7 +195,25 @@ def expected(path, t, x, y, p):
     np.savez_compressed(path, t=t, x=x, y=y, p=p)
 
 
+def convert(source, output, geometry):
+    """`source`: an .npz of columns t, x, y, p (as `ebiv convert` writes)."""
+    ev = np.load(source)
+    t, x, y, p = (ev[k] for k in ("t", "x", "y", "p"))
+    metavision(output, t.astype(np.int64), x.astype(np.uint16), y.astype(np.uint16),
+               (p > 0).astype(np.uint8), compressed=True, chunk=16384, encode=smallest,
+               geometry=geometry)
+
+
 def main():
+    import argparse
+    parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    parser.add_argument("--from", dest="source", help="an .npz of event columns to convert")
+    parser.add_argument("-o", "--output", help="the HDF5 file to write (with --from)")
+    parser.add_argument("--geometry", default="1280x720", help="sensor size (with --from)")
+    args = parser.parse_args()
+    if args.source:
+        convert(args.source, args.output, args.geometry)
+        return
     t, x, y, p = events()
     metavision(HERE / "metavision_ecf.hdf5", t, x, y, p, compressed=True)
     metavision(HERE / "metavision_plain.hdf5", t, x, y, p, compressed=False)
