@@ -25,6 +25,7 @@ mod prophesee_header;
 mod raw;
 mod reader;
 mod report;
+mod sink;
 mod source;
 mod text;
 mod time32;
