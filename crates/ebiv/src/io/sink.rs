@@ -21,14 +21,8 @@ pub(crate) struct EventSink<'a> {
 }
 
 impl EventSink<'_> {
-    /// Room left: how many more events may be written.
-    #[inline(always)]
-    pub fn room(&self) -> usize {
-        self.t.len() - self.len
-    }
-
     /// Write an event into the next slot and keep it when `keep` is true; a dropped event's
-    /// slot is reused by the next one. Needs [`EventSink::room`] ≥ 1 (checked).
+    /// slot is reused by the next one. Needs room for one more event (checked).
     #[inline(always)]
     pub fn push_if(&mut self, keep: bool, t: i64, x: u16, y: u16, p: u8) {
         let i = self.len;
@@ -86,7 +80,7 @@ impl EventSink<'_> {
         stop
     }
 
-    /// Keep an event. Needs [`EventSink::room`] ≥ 1 (checked).
+    /// Keep an event. Needs room for one more event (checked).
     #[inline(always)]
     pub fn push(&mut self, t: i64, x: u16, y: u16, p: u8) {
         self.push_if(true, t, x, y, p);
@@ -136,7 +130,6 @@ mod tests {
             sink.push_if(false, 9, 9, 9, 0);
             sink.push(4, 5, 6, 0);
             sink.push_if(true, 7, 8, 9, 1);
-            assert_eq!(sink.room(), 1);
             2
         });
         assert_eq!(written, 2);
