@@ -202,6 +202,9 @@ impl Recording {
             if let Some(t0) = t0 {
                 reader.skip_to(t0)?;
             }
+            if t0.is_none() && t1.is_none() {
+                return read_rest(&mut reader, watch);
+            }
             let (lo, hi) = (t0.unwrap_or(i64::MIN), t1.unwrap_or(i64::MAX));
             let mut out = EventBuffer::new();
             let mut batch = EventBuffer::new();
@@ -305,6 +308,29 @@ pub fn duration_us(name: &str, value: &Bound<'_, PyAny>) -> PyResult<i64> {
     })
 }
 
+/// Every event left in `reader`, batches gathered and joined once at the end (one copy of
+/// each event, no regrowth).
+fn read_rest(reader: &mut EventReader, watch: &Watch) -> ebiv::Result<EventBuffer> {
+    let mut batches = Vec::new();
+    loop {
+        watch.check()?;
+        let mut batch = EventBuffer::new();
+        if !reader.read_batch(&mut batch)? {
+            break;
+        }
+        batches.push(batch);
+    }
+    if batches.len() == 1 {
+        return Ok(batches.pop().unwrap_or_default());
+    }
+    let mut out = EventBuffer::with_capacity(batches.iter().map(EventBuffer::len).sum());
+    for batch in &batches {
+        out.extend_from(batch);
+    }
+    out.triggers.clear();
+    Ok(out)
+}
+
 #[derive(Clone, Copy)]
 enum Split {
     Duration(i64),
@@ -331,7 +357,12 @@ impl ChunkState {
             self.exhausted = true;
             return Ok(false);
         }
-        self.pending.extend_from(&batch);
+        if self.pending.is_empty() {
+            // Handed over as it is: no copy of the batch.
+            self.pending = batch;
+        } else {
+            self.pending.extend_from(&batch);
+        }
         Ok(true)
     }
 

@@ -72,6 +72,15 @@ def test_reading_between_times_and_in_chunks(data):
     assert sum(len(c.t) for c in rec) == len(everything.t)
 
 
+def test_whole_file_read_joins_the_batches_exactly(data):
+    rec = ebiv.open(data("prophesee/evt2_sample.raw"))
+    batches = list(rec)
+    assert len(batches) > 1  # the whole-file read joins several batches
+    everything = rec.read()
+    for i, column in enumerate(everything):
+        np.testing.assert_array_equal(np.concatenate([b[i] for b in batches]), column)
+
+
 def test_bad_input_gives_the_command_line_messages(tmp_path, cli, data):
     with pytest.raises(FileNotFoundError, match="missing.raw"):
         ebiv.open(tmp_path / "missing.raw")

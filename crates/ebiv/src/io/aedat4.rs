@@ -13,6 +13,7 @@
 mod codec;
 mod flatbuf;
 mod info;
+mod lz4_direct;
 mod packets;
 mod table;
 #[cfg(test)]

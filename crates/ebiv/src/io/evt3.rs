@@ -6,6 +6,7 @@
 //! one, `TIME_LOW` never carries into the high part and its regressions pass through.
 
 use super::bytestream::WordDecoder;
+use super::sink::{self, EventSink};
 use super::DecodeReport;
 use crate::event::{EventBuffer, Geometry, Trigger};
 
@@ -21,6 +22,9 @@ const EXT_TRIGGER: u16 = 0xA;
 const IMU: u16 = 0xD;
 const OTHERS: u16 = 0xE;
 const CONTINUED_12: u16 = 0xF;
+
+/// Words decoded into one reservation of the output (twelve events per word at most).
+const PIECE_WORDS: usize = 4096;
 
 /// One loop of the 24-bit time base, in µs.
 pub(crate) const EVT3_LOOP_US: i64 = 1 << 24;
@@ -73,7 +77,7 @@ impl Evt3Decoder {
         &mut self,
         mut mask: u32,
         bits: u32,
-        out: &mut EventBuffer,
+        sink: &mut EventSink,
         report: &mut DecodeReport,
     ) {
         if !self.seen_time_high || !self.seen_vector_base || !self.y_valid {
@@ -92,10 +96,116 @@ impl Evt3Decoder {
             if x >= self.width {
                 report.out_of_range += 1;
             } else {
-                out.push(self.t, x as u16, self.y, self.vect_pol);
+                sink.push(self.t, x as u16, self.y, self.vect_pol);
             }
         }
         self.base_x += bits;
+    }
+
+    /// One word, as the format defines it (`at`: its file offset).
+    fn word(&mut self, w: u16, at: u64, sink: &mut EventSink, report: &mut DecodeReport) {
+        match w >> 12 {
+            ADDR_X => {
+                if !self.seen_time_high {
+                    report.before_time_base += 1;
+                    return;
+                }
+                let x = (w & 0x7FF) as u32;
+                if x >= self.width || !self.y_valid {
+                    report.out_of_range += 1;
+                    return;
+                }
+                sink.push(self.t, x as u16, self.y, ((w >> 11) & 1) as u8);
+            }
+            TIME_LOW => {
+                self.t = self.high_us + (w & 0xFFF) as i64;
+            }
+            ADDR_Y => {
+                let y = w & 0x7FF;
+                self.y = y;
+                self.y_valid = (y as u32) < self.height;
+            }
+            VECT_BASE_X => {
+                self.base_x = (w & 0x7FF) as u32;
+                self.vect_pol = ((w >> 11) & 1) as u8;
+                self.seen_vector_base = true;
+            }
+            VECT_12 => self.vector((w & 0xFFF) as u32, 12, sink, report),
+            VECT_8 => self.vector((w & 0xFF) as u32, 8, sink, report),
+            TIME_HIGH => {
+                let th = w & 0xFFF;
+                if self.seen_time_high {
+                    if th + EVT3_WRAP_THRESHOLD < self.time_high {
+                        self.loops_us += EVT3_LOOP_US;
+                    }
+                } else {
+                    self.first_time_high = Some(th);
+                }
+                let same = self.seen_time_high && th == self.time_high;
+                self.time_high = th;
+                self.seen_time_high = true;
+                self.high_us = self.offset_us + self.loops_us + ((th as i64) << 12);
+                // A repeated TIME_HIGH keeps the current TIME_LOW (OpenEB HAL).
+                if !same {
+                    self.t = self.high_us;
+                }
+            }
+            EXT_TRIGGER => {
+                if self.seen_time_high {
+                    sink.triggers.push(Trigger {
+                        t: self.t,
+                        channel: ((w >> 8) & 0xF) as u8,
+                        value: (w & 1) as u8,
+                    });
+                } else {
+                    report.before_time_base += 1;
+                }
+            }
+            CONTINUED_4 | CONTINUED_12 | OTHERS | IMU => report.skipped_other += 1,
+            kind => {
+                if report.unknown_words == 0 {
+                    report.warn(format!(
+                        "EVT 3.0: unknown word type {kind:#x} at byte {at}; skipped and counted"
+                    ));
+                }
+                report.unknown_words += 1;
+            }
+        }
+    }
+
+    /// The run of `ADDR_Y`, `ADDR_X` pairs at word `i` of `piece`, after the first time base:
+    /// each pair is one event, written and kept when its pixel is on the sensor, as
+    /// [`Evt3Decoder::word`] would decode the two words. Returns the index of the first word
+    /// after the run.
+    fn addr_pairs(
+        &mut self,
+        piece: &[u8],
+        i: usize,
+        sink: &mut EventSink,
+        report: &mut DecodeReport,
+    ) -> usize {
+        let (width, height, t) = (self.width, self.height, self.t);
+        let (mut pairs, mut out_of_range, mut last_y) = (0usize, 0u64, self.y);
+        let (counted, taken, row) = (&mut out_of_range, &mut pairs, &mut last_y);
+        let mut words = piece[2 * i..]
+            .chunks_exact(4)
+            .map(|c| u32::from_le_bytes([c[0], c[1], c[2], c[3]]));
+        sink.extend_while(&mut words, move |&pair| {
+            // Low half ADDR_Y (type 0x0), high half ADDR_X (type 0x2).
+            (pair & 0xF000_F000 == (ADDR_X as u32) << 28).then(|| {
+                let y = (pair & 0x7FF) as u16;
+                let x = ((pair >> 16) & 0x7FF) as u16;
+                let inside = ((x as u32) < width) & ((y as u32) < height);
+                *counted += !inside as u64;
+                *taken += 1;
+                *row = y;
+                (inside, t, x, y, ((pair >> 27) & 1) as u8)
+            })
+        });
+        report.out_of_range += out_of_range;
+        self.y = last_y;
+        self.y_valid = (last_y as u32) < height;
+        i + 2 * pairs
     }
 }
 
@@ -141,6 +251,9 @@ impl WordDecoder for Evt3Decoder {
         Some(())
     }
 
+    /// Runs of `ADDR_Y`, `ADDR_X` pairs (one event on its own row, the common word pair of
+    /// sparse recordings) take a straight path, [`Evt3Decoder::addr_pairs`]; every other word
+    /// goes through [`Evt3Decoder::word`].
     fn decode(
         &mut self,
         bytes: &[u8],
@@ -149,76 +262,27 @@ impl WordDecoder for Evt3Decoder {
         report: &mut DecodeReport,
     ) {
         out.reserve(bytes.len() / 2);
-        for (i, word) in bytes.chunks_exact(2).enumerate() {
-            let w = u16::from_le_bytes([word[0], word[1]]);
-            match w >> 12 {
-                ADDR_X => {
-                    if !self.seen_time_high {
-                        report.before_time_base += 1;
-                        continue;
-                    }
-                    let x = (w & 0x7FF) as u32;
-                    if x >= self.width || !self.y_valid {
-                        report.out_of_range += 1;
-                        continue;
-                    }
-                    out.push(self.t, x as u16, self.y, ((w >> 11) & 1) as u8);
-                }
-                TIME_LOW => {
-                    self.t = self.high_us + (w & 0xFFF) as i64;
-                }
-                ADDR_Y => {
-                    let y = w & 0x7FF;
-                    self.y = y;
-                    self.y_valid = (y as u32) < self.height;
-                }
-                VECT_BASE_X => {
-                    self.base_x = (w & 0x7FF) as u32;
-                    self.vect_pol = ((w >> 11) & 1) as u8;
-                    self.seen_vector_base = true;
-                }
-                VECT_12 => self.vector((w & 0xFFF) as u32, 12, out, report),
-                VECT_8 => self.vector((w & 0xFF) as u32, 8, out, report),
-                TIME_HIGH => {
-                    let th = w & 0xFFF;
-                    if self.seen_time_high {
-                        if th + EVT3_WRAP_THRESHOLD < self.time_high {
-                            self.loops_us += EVT3_LOOP_US;
-                        }
+        // Pieces whose worst case (twelve events per vector word) is reserved up front.
+        for (k, piece) in bytes.chunks(2 * PIECE_WORDS).enumerate() {
+            let start = offset + (2 * PIECE_WORDS * k) as u64;
+            let n = piece.len() / 2;
+            let word = |i: usize| u16::from_le_bytes([piece[2 * i], piece[2 * i + 1]]);
+            sink::append(out, n * 12, |sink| {
+                let mut i = 0;
+                while i < n {
+                    let w = word(i);
+                    if w >> 12 == ADDR_Y
+                        && self.seen_time_high
+                        && i + 1 < n
+                        && word(i + 1) >> 12 == ADDR_X
+                    {
+                        i = self.addr_pairs(piece, i, sink, report);
                     } else {
-                        self.first_time_high = Some(th);
-                    }
-                    let same = self.seen_time_high && th == self.time_high;
-                    self.time_high = th;
-                    self.seen_time_high = true;
-                    self.high_us = self.offset_us + self.loops_us + ((th as i64) << 12);
-                    // A repeated TIME_HIGH keeps the current TIME_LOW (OpenEB HAL).
-                    if !same {
-                        self.t = self.high_us;
+                        self.word(w, start + 2 * i as u64, sink, report);
+                        i += 1;
                     }
                 }
-                EXT_TRIGGER => {
-                    if self.seen_time_high {
-                        out.triggers.push(Trigger {
-                            t: self.t,
-                            channel: ((w >> 8) & 0xF) as u8,
-                            value: (w & 1) as u8,
-                        });
-                    } else {
-                        report.before_time_base += 1;
-                    }
-                }
-                CONTINUED_4 | CONTINUED_12 | OTHERS | IMU => report.skipped_other += 1,
-                kind => {
-                    if report.unknown_words == 0 {
-                        report.warn(format!(
-                            "EVT 3.0: unknown word type {kind:#x} at byte {}; skipped and counted",
-                            offset + 2 * i as u64
-                        ));
-                    }
-                    report.unknown_words += 1;
-                }
-            }
+            });
         }
     }
 
@@ -232,6 +296,7 @@ impl WordDecoder for Evt3Decoder {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use proptest::prelude::*;
 
     fn decode(words: &[u16], geometry: Geometry) -> (EventBuffer, DecodeReport) {
         let bytes: Vec<u8> = words.iter().flat_map(|w| w.to_le_bytes()).collect();
@@ -341,5 +406,56 @@ mod tests {
         ];
         let (out, _) = decode(&words, g);
         assert_eq!(out.t, vec![4095 * 4096, 2047 * 4096, (1 << 24) + 10 * 4096]);
+    }
+
+    /// Words of every type, with runs of `ADDR_Y`, `ADDR_X` pairs (rows and columns partly
+    /// off the sensor), time bases that step forward, back and loop.
+    fn word() -> impl Strategy<Value = Vec<u16>> {
+        let pair = (0u16..800, 0u16..1400, 0u16..2)
+            .prop_map(|(y, x, p)| vec![w(ADDR_Y, y), w(ADDR_X, p << 11 | x)]);
+        let high = prop_oneof![0u16..8, 4000u16..4096].prop_map(|h| vec![w(TIME_HIGH, h)]);
+        let any = (0u16..16, 0u16..0x1000).prop_map(|(k, v)| vec![w(k, v)]);
+        prop_oneof![6 => pair, 1 => high, 3 => any]
+    }
+
+    proptest! {
+        #[test]
+        fn pairs_path_matches_word_by_word(
+            groups in prop::collection::vec(word(), 0..300),
+            cuts in prop::collection::vec(0usize..700, 0..5),
+        ) {
+            let words: Vec<u16> = groups.concat();
+            let g = Geometry::new(1280, 720);
+            let want = decode(&words, g);
+            let bytes: Vec<u8> = words.iter().flat_map(|w| w.to_le_bytes()).collect();
+            let mut ends: Vec<usize> = cuts.iter().map(|&c| c.min(words.len())).collect();
+            ends.push(words.len());
+            ends.sort_unstable();
+            let mut dec = Evt3Decoder::new(Some(g), 0);
+            let (mut out, mut report) = (EventBuffer::new(), DecodeReport::default());
+            let mut start = 0;
+            for end in ends {
+                dec.decode(&bytes[2 * start..2 * end], 2 * start as u64, &mut out, &mut report);
+                start = end;
+            }
+            prop_assert_eq!((out, report), want);
+        }
+    }
+
+    #[test]
+    fn pieces_longer_than_one_reservation() {
+        let g = Geometry::new(1280, 720);
+        let mut words = vec![w(TIME_HIGH, 3), w(ADDR_Y, 5), w(VECT_BASE_X, 0)];
+        for i in 0..3 * PIECE_WORDS as u16 {
+            words.push(w(VECT_12, 0xFFF));
+            if i % 100 == 0 {
+                words.extend([w(ADDR_Y, i % 720), w(ADDR_X, i % 1280), w(VECT_BASE_X, 0)]);
+            }
+        }
+        let bytes: Vec<u8> = words.iter().flat_map(|w| w.to_le_bytes()).collect();
+        let mut dec = Evt3Decoder::new(Some(g), 0);
+        let (mut out, mut report) = (EventBuffer::new(), DecodeReport::default());
+        dec.decode(&bytes, 0, &mut out, &mut report);
+        assert_eq!((out, report), decode(&words, g));
     }
 }

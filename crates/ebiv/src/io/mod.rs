@@ -27,6 +27,7 @@ mod prophesee_header;
 mod raw;
 mod reader;
 mod report;
+mod sink;
 mod source;
 mod text;
 mod time32;

@@ -142,6 +142,13 @@ impl Decompressor {
                 Ok((self.input.get(..size).unwrap_or(&[]), 0))
             }
             Codec::Lz4(dec) => {
+                let packet = dec.get_ref();
+                let input = packet.data.get(..packet.len).unwrap_or(&[]);
+                if let Some((len, trailing)) =
+                    super::lz4_direct::decompress_frame(input, &mut self.output, self.cap)?
+                {
+                    return Ok((&self.output[..len], trailing));
+                }
                 // lz4_flex sizes its block buffers for the first frame it decodes and expects
                 // later frames to use the same block size and mode; DV writes every packet
                 // alike, so the decoder is only replaced when they change.

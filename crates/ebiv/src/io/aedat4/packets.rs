@@ -3,6 +3,7 @@
 
 use super::flatbuf::{self, FbError};
 use crate::event::{EventBuffer, Trigger};
+use crate::io::sink;
 use crate::io::DecodeReport;
 
 /// Size of one `dv::Event` struct: `i64 timestamp, i16 x, i16 y, bool polarity`, padded to 8.
@@ -43,23 +44,20 @@ fn push_events(
     fn t_of(c: &[u8]) -> i64 {
         i64::from_le_bytes([c[0], c[1], c[2], c[3], c[4], c[5], c[6], c[7]])
     }
-    let in_range = |c: &[u8]| (x_of(c) as u32) < width && (y_of(c) as u32) < height;
-    let records = elements.chunks_exact(EVENT_BYTES);
-    if records.clone().all(in_range) {
-        out.t.extend(records.clone().map(t_of));
-        out.x.extend(records.clone().map(x_of));
-        out.y.extend(records.clone().map(y_of));
-        out.p.extend(records.map(|c| (c[12] != 0) as u8));
-        return;
-    }
-    out.reserve(elements.len() / EVENT_BYTES);
-    for c in records {
-        if in_range(c) {
-            out.push(t_of(c), x_of(c), y_of(c), (c[12] != 0) as u8);
-        } else {
-            report.out_of_range += 1;
-        }
-    }
+    let mut records = elements.chunks_exact(EVENT_BYTES);
+    let mut out_of_range = 0u64;
+    let counted = &mut out_of_range;
+    // One pass: each record is written into the next slot and kept when its pixel is on the
+    // sensor.
+    sink::append(out, records.len(), |sink| {
+        sink.extend_while(&mut records, move |c| {
+            let (x, y) = (x_of(c), y_of(c));
+            let inside = ((x as u32) < width) & ((y as u32) < height);
+            *counted += !inside as u64;
+            Some((inside, t_of(c), x, y, (c[12] != 0) as u8))
+        })
+    });
+    report.out_of_range += out_of_range;
 }
 
 /// `TriggerPacket` (identifier `TRIG`): field 0 is a vector of `Trigger` tables with fields
