@@ -472,6 +472,9 @@ pub struct FieldSeries {
     /// settings. The writers add the software, units, axis convention, time basis and
     /// status legend themselves.
     pub attributes: Vec<(String, String)>,
+    /// Quantities derived from the velocity gradient ([`crate::derived`]), written next to
+    /// `u` and `v`; empty unless asked for.
+    pub derived: Vec<crate::derived::DerivedField>,
 }
 
 impl FieldSeries {
@@ -497,6 +500,7 @@ impl FieldSeries {
             time_origin_us: None,
             ground_truth: false,
             attributes: Vec::new(),
+            derived: Vec::new(),
         }
     }
 
@@ -516,8 +520,15 @@ impl FieldSeries {
         self.x.len() * self.y.len()
     }
 
-    /// Append a field at time `t_us`; it must lie on this series' grid.
+    /// Append a field at time `t_us`; it must lie on this series' grid, and the series must
+    /// hold no derived quantities (they would not cover the new field).
     pub fn push(&mut self, t_us: i64, field: &VectorField) -> crate::Result<()> {
+        if !self.derived.is_empty() {
+            return Err(crate::Error::parameter(
+                "field",
+                "the series holds derived quantities; add fields before deriving them",
+            ));
+        }
         if field.x != self.x || field.y != self.y {
             return Err(crate::Error::parameter(
                 "field",
