@@ -308,7 +308,7 @@ pub fn piv<'py>(
                 watch.progress(done.index as u64 + 1, total);
                 watch.check()
             })?;
-        series.calibration = run.calibration;
+        run.finish_series(&mut series)?;
         if write_output {
             ebiv::export::write_field(&series, &run.output)?;
         }

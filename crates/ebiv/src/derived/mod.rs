@@ -83,10 +83,7 @@ impl DerivedQuantity {
 
     /// Whether its sign flips when y (and v) are flipped: vorticity and e_xy.
     pub fn odd_in_y(self) -> bool {
-        matches!(
-            self,
-            DerivedQuantity::Vorticity | DerivedQuantity::StrainXy
-        )
+        matches!(self, DerivedQuantity::Vorticity | DerivedQuantity::StrainXy)
     }
 
     /// Whether it has a sign (a diverging colour map centred on 0 shows it).
@@ -186,6 +183,11 @@ pub struct DerivedField {
     pub values: Vec<f32>,
 }
 
+/// The quantities a run derives (the setting `derive`): a list parsed by
+/// [`parse_quantities`].
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct DerivedList(pub Vec<DerivedQuantity>);
+
 /// The quantities named in `text`, comma-separated (`vorticity,divergence`); `strain` stands
 /// for e_xx, e_yy, e_xy and `all` for every quantity. Sorted, without repetitions.
 pub fn parse_quantities(text: &str) -> std::result::Result<Vec<DerivedQuantity>, String> {
@@ -266,6 +268,25 @@ pub fn derive_series(
 pub fn add_derived(series: &mut FieldSeries, quantities: &[DerivedQuantity]) -> Result<()> {
     series.derived = derive_series(series, quantities)?;
     Ok(())
+}
+
+/// Check that a field file named `path` can hold derived quantities: .nc, .csv or .npz.
+pub fn check_output(path: &std::path::Path) -> Result<()> {
+    let ext = path
+        .extension()
+        .and_then(|e| e.to_str())
+        .map(str::to_ascii_lowercase)
+        .unwrap_or_default();
+    if matches!(ext.as_str(), "nc" | "csv" | "npz") {
+        return Ok(());
+    }
+    Err(Error::parameter(
+        "derive",
+        format!(
+            "{}: derived quantities are written to .nc, .csv or .npz files",
+            path.display()
+        ),
+    ))
 }
 
 /// One sentence on the scheme, for file metadata.

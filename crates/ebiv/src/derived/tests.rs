@@ -33,8 +33,16 @@ fn solid_body_rotation_has_twice_its_rate_as_vorticity_and_no_strain() {
     let omega = 0.05; // 1/ms
     let (x0, y0) = (27.0, 19.0);
     let s = series_of(|x, y| (-omega * (y - y0), omega * (x - x0)));
-    assert!(all_near(&values(&s, DerivedQuantity::Vorticity), 2.0 * omega, 1e-6));
-    assert!(all_near(&values(&s, DerivedQuantity::SwirlingStrength), omega, 1e-6));
+    assert!(all_near(
+        &values(&s, DerivedQuantity::Vorticity),
+        2.0 * omega,
+        1e-6
+    ));
+    assert!(all_near(
+        &values(&s, DerivedQuantity::SwirlingStrength),
+        omega,
+        1e-6
+    ));
     for q in [
         DerivedQuantity::Divergence,
         DerivedQuantity::StrainXx,
@@ -45,26 +53,54 @@ fn solid_body_rotation_has_twice_its_rate_as_vorticity_and_no_strain() {
     }
     // The other sense of rotation: negative vorticity, the same swirling strength.
     let back = series_of(|x, y| (omega * (y - y0), -omega * (x - x0)));
-    assert!(all_near(&values(&back, DerivedQuantity::Vorticity), -2.0 * omega, 1e-6));
-    assert!(all_near(&values(&back, DerivedQuantity::SwirlingStrength), omega, 1e-6));
+    assert!(all_near(
+        &values(&back, DerivedQuantity::Vorticity),
+        -2.0 * omega,
+        1e-6
+    ));
+    assert!(all_near(
+        &values(&back, DerivedQuantity::SwirlingStrength),
+        omega,
+        1e-6
+    ));
 }
 
 #[test]
 fn pure_shear_has_half_its_rate_as_e_xy_and_minus_it_as_vorticity() {
     let gamma = 0.02;
     let s = series_of(|_, y| (gamma * y, 0.0));
-    assert!(all_near(&values(&s, DerivedQuantity::StrainXy), gamma / 2.0, 1e-7));
-    assert!(all_near(&values(&s, DerivedQuantity::Vorticity), -gamma, 1e-7));
-    assert!(all_near(&values(&s, DerivedQuantity::Divergence), 0.0, 1e-7));
+    assert!(all_near(
+        &values(&s, DerivedQuantity::StrainXy),
+        gamma / 2.0,
+        1e-7
+    ));
+    assert!(all_near(
+        &values(&s, DerivedQuantity::Vorticity),
+        -gamma,
+        1e-7
+    ));
+    assert!(all_near(
+        &values(&s, DerivedQuantity::Divergence),
+        0.0,
+        1e-7
+    ));
     // A shear has real (zero) eigenvalues: no swirl.
-    assert!(all_near(&values(&s, DerivedQuantity::SwirlingStrength), 0.0, 0.0));
+    assert!(all_near(
+        &values(&s, DerivedQuantity::SwirlingStrength),
+        0.0,
+        0.0
+    ));
 }
 
 #[test]
 fn linear_stretching_has_divergence_and_normal_strains() {
     let (a, b) = (0.03, -0.01);
     let s = series_of(|x, y| (a * x, b * y));
-    assert!(all_near(&values(&s, DerivedQuantity::Divergence), a + b, 1e-7));
+    assert!(all_near(
+        &values(&s, DerivedQuantity::Divergence),
+        a + b,
+        1e-7
+    ));
     assert!(all_near(&values(&s, DerivedQuantity::StrainXx), a, 1e-7));
     assert!(all_near(&values(&s, DerivedQuantity::StrainYy), b, 1e-7));
     assert!(all_near(&values(&s, DerivedQuantity::Vorticity), 0.0, 1e-7));
@@ -83,7 +119,11 @@ fn central_differences_inside_one_sided_at_the_edges() {
             6 => (x[6] + x[5]) / 100.0,
             _ => 2.0 * x[c] / 100.0,
         };
-        assert!((e[c] as f64 - expected).abs() < 1e-5, "column {c}: {}", e[c]);
+        assert!(
+            (e[c] as f64 - expected).abs() < 1e-5,
+            "column {c}: {}",
+            e[c]
+        );
     }
 }
 
@@ -101,7 +141,11 @@ fn invalid_vectors_make_nan_or_one_sided_neighbours_never_zeros() {
     assert!(w[i].is_nan(), "no value at an invalid node");
     // Its neighbours fall back to one-sided differences: still exact on a linear field.
     for k in [i - 1, i + 1, i - 7, i + 7] {
-        assert!((w[k] as f64 - 2.0 * omega).abs() < 1e-6, "node {k}: {}", w[k]);
+        assert!(
+            (w[k] as f64 - 2.0 * omega).abs() < 1e-6,
+            "node {k}: {}",
+            w[k]
+        );
     }
     // Also with a zero left in the arrays (a writer's fill value): the status decides.
     s.u[i] = 0.0;
@@ -141,8 +185,15 @@ fn calibration_writes_per_second_and_flips_odd_quantities_with_y() {
     let w = DerivedQuantity::written(vorticity, &s);
     assert!(all_near(&w, -2.0 * omega * 1000.0, 1e-3), "flipped with y");
     let swirl = &s.derived[5];
-    assert!(all_near(&DerivedQuantity::written(swirl, &s), omega * 1000.0, 1e-3));
-    assert!(s.push(2000, &s.field(0)).is_err(), "derived quantities cover the series");
+    assert!(all_near(
+        &DerivedQuantity::written(swirl, &s),
+        omega * 1000.0,
+        1e-3
+    ));
+    assert!(
+        s.push(2000, &s.field(0)).is_err(),
+        "derived quantities cover the series"
+    );
 }
 
 #[test]

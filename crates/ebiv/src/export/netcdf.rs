@@ -26,8 +26,8 @@
 //! is not repeated. NetCDF-3 is read natively by MATLAB `ncread`, xarray and ParaView.
 
 use super::{axis_convention, check, partial_path, sanitize_name, time_comment, Written, SOFTWARE};
-use crate::error::{Error, Result};
 use crate::derived::DerivedQuantity;
+use crate::error::{Error, Result};
 use crate::field::{FieldSeries, Status, TimeBasis};
 use netcdf3::{DataSet, FileWriter, Version};
 use std::path::Path;
@@ -276,9 +276,15 @@ fn derived_variables(field: &FieldSeries) -> Vec<Variable> {
                 Values::F32(DerivedQuantity::written(d, field)),
             );
             v.attributes = vec![
-                ("long_name".into(), Attribute::Text(d.quantity.long_name(y_up))),
+                (
+                    "long_name".into(),
+                    Attribute::Text(d.quantity.long_name(y_up)),
+                ),
                 ("units".into(), Attribute::Text(unit.into())),
-                ("comment".into(), Attribute::Text(crate::derived::SCHEME.into())),
+                (
+                    "comment".into(),
+                    Attribute::Text(crate::derived::SCHEME.into()),
+                ),
             ];
             v
         })
