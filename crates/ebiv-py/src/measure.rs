@@ -537,7 +537,7 @@ pub fn examples() -> Vec<(&'static str, &'static str)> {
 /// computes them; `output=` also writes the file (.nc or .csv). Returns the dataset
 /// structure of the statistics' NetCDF file.
 #[pyfunction]
-#[pyo3(signature = (field, period=None, phases=8, phase_origin=None, include_replaced=false, mm_per_px=None, output=None))]
+#[pyo3(signature = (field, period=None, phases=8, phase_origin=None, include_replaced=false, mm_per_px=None, output=None, triggers=None, trigger_polarity="rising", trigger_channel=None, reader_options=None))]
 #[allow(clippy::too_many_arguments)]
 pub fn stats<'py>(
     py: Python<'py>,
@@ -548,6 +548,10 @@ pub fn stats<'py>(
     include_replaced: bool,
     mm_per_px: Option<f64>,
     output: Option<PathBuf>,
+    triggers: Option<PathBuf>,
+    trigger_polarity: &str,
+    trigger_channel: Option<u8>,
+    reader_options: Option<&Bound<'py, PyDict>>,
 ) -> PyResult<Bound<'py, PyDict>> {
     let duration = |name: &str, value: Option<&Bound<'py, PyAny>>| -> PyResult<Option<i64>> {
         value
@@ -560,8 +564,15 @@ pub fn stats<'py>(
             "invalid parameter `phases`: must be 1 to 10000, got {phases}"
         ))
     })?;
-    let options = ebiv::statistics::StatsOptions {
+    let polarity = ebiv::statistics::TriggerPolarity::parse(trigger_polarity).ok_or_else(|| {
+        PyValueError::new_err(format!(
+            "invalid parameter `trigger_polarity`: `{trigger_polarity}` is not rising, falling or any"
+        ))
+    })?;
+    let reader_options = crate::recording::read_options(reader_options)?;
+    let mut options = ebiv::statistics::StatsOptions {
         period_us: duration("period", period)?,
+        triggers_us: None,
         phases,
         phase_origin_us: duration("phase_origin", phase_origin)?,
         include_replaced,
@@ -576,6 +587,16 @@ pub fn stats<'py>(
     let series = series_of(field, &read_options)?;
     let statistics = py
         .detach(|| -> ebiv::Result<_> {
+            if let Some(recording) = &triggers {
+                let times = ebiv::statistics::triggers_for(
+                    &series,
+                    recording,
+                    &reader_options,
+                    polarity,
+                    trigger_channel,
+                )?;
+                options.triggers_us = Some(times.times_us);
+            }
             let st = ebiv::statistics::flow_statistics(&series, &options)?;
             if let Some(path) = &output {
                 ebiv::export::write_statistics(&st, &series.attributes, path)?;
