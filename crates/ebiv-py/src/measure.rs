@@ -533,6 +533,42 @@ pub fn examples() -> Vec<(&'static str, &'static str)> {
     EXAMPLES.iter().map(|e| (e.0, e.1)).collect()
 }
 
+/// Quantities derived from the velocity gradient of a field series (a dataset structure or
+/// a field file), as `ebiv derive` computes them; `output=` also writes the file (.nc, .csv
+/// or .npz). Returns the dataset structure of the field with the quantities.
+#[pyfunction]
+#[pyo3(signature = (field, quantities="all", mm_per_px=None, output=None))]
+pub fn derive<'py>(
+    py: Python<'py>,
+    field: &Bound<'py, PyAny>,
+    quantities: &str,
+    mm_per_px: Option<f64>,
+    output: Option<PathBuf>,
+) -> PyResult<Bound<'py, PyDict>> {
+    let quantities = ebiv::derived::parse_quantities(quantities)
+        .map_err(|m| PyValueError::new_err(format!("invalid parameter `quantities`: {m}")))?;
+    if let Some(path) = &output {
+        check_output(path, "output")?;
+        ebiv::derived::check_output(path).py_err()?;
+    }
+    let read_options = FieldReadOptions {
+        mm_per_px,
+        ..FieldReadOptions::default()
+    };
+    let mut series = series_of(field, &read_options)?;
+    series.scale_if_uncalibrated(mm_per_px);
+    let series = py
+        .detach(|| -> ebiv::Result<_> {
+            ebiv::derived::add_derived(&mut series, &quantities)?;
+            if let Some(path) = &output {
+                ebiv::export::write_field(&series, path)?;
+            }
+            Ok(series)
+        })
+        .py_err()?;
+    series_to_py(py, &series)
+}
+
 /// Flow statistics of a field series (a dataset structure or a field file), as `ebiv stats`
 /// computes them; `output=` also writes the file (.nc or .csv). Returns the dataset
 /// structure of the statistics' NetCDF file.

@@ -509,6 +509,19 @@ impl FieldSeries {
         FieldSeries::new(x, y, Vec::new())
     }
 
+    /// Give a series without a calibration of its own the scale `mm_per_px` (origin at
+    /// (0, 0) px, y down), so that it is written in mm and m/s (as `ebiv stats` and `ebiv
+    /// derive --mm-per-px` do); a series with a calibration keeps it.
+    pub fn scale_if_uncalibrated(&mut self, mm_per_px: Option<f64>) {
+        if let (Some(mm_per_px), None) = (mm_per_px, self.calibration) {
+            self.calibration = Some(Calibration {
+                mm_per_px,
+                origin_px: [0.0, 0.0],
+                y_up: false,
+            });
+        }
+    }
+
     /// Flat index of `(t, row, column)`.
     #[inline]
     pub fn index(&self, t: usize, row: usize, col: usize) -> usize {

@@ -73,13 +73,7 @@ pub fn run(args: &DeriveArgs) -> Result<(), Error> {
         ..FieldReadOptions::default()
     };
     let mut series = read_field(&args.field, &read_options)?;
-    if let (Some(mm_per_px), None) = (args.mm_per_px, series.calibration) {
-        series.calibration = Some(ebiv::field::Calibration {
-            mm_per_px,
-            origin_px: [0.0, 0.0],
-            y_up: false,
-        });
-    }
+    series.scale_if_uncalibrated(args.mm_per_px);
     add_derived(&mut series, &quantities)?;
     ebiv::export::write_field(&series, &args.output)?;
     let unit = ebiv::derived::DerivedQuantity::unit(series.quantity, series.calibration.as_ref());

@@ -94,14 +94,8 @@ pub fn run(args: &StatsArgs) -> Result<(), Error> {
     };
     read_options.validate()?;
     let mut series = read_field(&args.field, &read_options)?;
-    if let (Some(mm_per_px), None) = (args.mm_per_px, series.calibration) {
-        // A scale given for a file without one: the statistics in m/s, y down.
-        series.calibration = Some(ebiv::field::Calibration {
-            mm_per_px,
-            origin_px: [0.0, 0.0],
-            y_up: false,
-        });
-    }
+    // A scale given for a file without one: the statistics in m/s, y down.
+    series.scale_if_uncalibrated(args.mm_per_px);
     if let Some(recording) = &args.triggers {
         let times = triggers_for(
             &series,
