@@ -10,11 +10,11 @@ fn rotation(omega: f32) -> FieldSeries {
     let x: Vec<f64> = (0..6).map(|i| 8.0 + 16.0 * i as f64).collect();
     let y: Vec<f64> = (0..4).map(|i| 8.0 + 16.0 * i as f64).collect();
     let mut f = VectorField::new(x.clone(), y.clone());
-    for r in 0..y.len() {
-        for c in 0..x.len() {
+    for (r, &yy) in y.iter().enumerate() {
+        for (c, &xx) in x.iter().enumerate() {
             let i = f.index(r, c);
-            f.u[i] = -omega * (y[r] - 24.0) as f32;
-            f.v[i] = omega * (x[c] - 40.0) as f32;
+            f.u[i] = -omega * (yy - 24.0) as f32;
+            f.v[i] = omega * (xx - 40.0) as f32;
             f.status[i] = Status::VALID;
         }
     }

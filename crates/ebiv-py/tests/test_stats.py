@@ -68,7 +68,9 @@ def test_phase_averaging_by_trigger(cli, tmp_path):
     u = np.repeat(quarter.astype(np.float32)[:, None, None], 2, axis=2)
     field = {"time": times.astype(np.float64), "y": np.array([8.0]), "x": np.array([8.0, 24.0]),
              "u": u, "v": np.zeros_like(u), "status": np.zeros(u.shape, np.int16),
-             "attrs": {"time_origin_us": float(first)}}
+             "attrs": {"time_origin_us": float(first)},
+             "variable_attrs": {"x": {"units": "px"}, "y": {"units": "px"},
+                                "u": {"units": "px/ms"}, "v": {"units": "px/ms"}}}
     st = ebiv.stats(field, triggers=tmp_path / "rec.raw", phases=4)
     assert st.sizes["phase"] == 4
     np.testing.assert_allclose(st.phase.values, [0.125, 0.375, 0.625, 0.875])
