@@ -62,6 +62,9 @@ enum Command {
     /// Flow statistics of a field series: mean, RMS, Reynolds stresses and valid samples per
     /// node, optionally phase-averaged.
     Stats(cmd::stats::StatsArgs),
+    /// Vorticity, divergence, strain rates and swirling strength of a field series, with
+    /// colour maps.
+    Derive(cmd::derive::DeriveArgs),
     /// Monte-Carlo parameter study: simulate, process and measure a setup over swept
     /// parameters and seeds; tables, plots and a report.
     Study(cmd::study::StudyArgs),
@@ -103,6 +106,7 @@ fn main() -> ExitCode {
         Command::Track(a) => cmd::track::run(a),
         Command::Assess(a) => cmd::assess::run(a),
         Command::Stats(a) => cmd::stats::run(a),
+        Command::Derive(a) => cmd::derive::run(a),
         Command::Study(a) => cmd::study::run(a),
     };
     match result {

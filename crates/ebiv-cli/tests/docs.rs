@@ -8,7 +8,7 @@ use std::path::PathBuf;
 
 /// Where commands are described: the commands, the page, and the heading that opens their
 /// section (the section runs to the next heading of the same level), or the whole page.
-const PAGES: [(&[&str], &str, Option<&str>); 14] = [
+const PAGES: [(&[&str], &str, Option<&str>); 15] = [
     (&["info"], "commands.md", Some("## `ebiv info")),
     (&["index"], "commands.md", Some("## `ebiv index")),
     (&["convert"], "commands.md", Some("## `ebiv convert")),
@@ -19,6 +19,7 @@ const PAGES: [(&[&str], &str, Option<&str>); 14] = [
     (&["process"], "process.md", None),
     (&["simulate"], "simulate.md", None),
     (&["stats"], "statistics.md", Some("## Options")),
+    (&["derive"], "derived.md", Some("## Options")),
     (&["study"], "study.md", None),
     (&["track"], "tracking.md", Some("## Options")),
     // `ebiv live` also takes every setting of `ebiv process` (documented in process.md).

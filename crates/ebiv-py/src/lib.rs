@@ -41,6 +41,7 @@ fn _ebiv(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(measure::assess, m)?)?;
     m.add_function(wrap_pyfunction!(measure::write, m)?)?;
     m.add_function(wrap_pyfunction!(measure::stats, m)?)?;
+    m.add_function(wrap_pyfunction!(measure::derive, m)?)?;
     m.add_function(wrap_pyfunction!(measure::setting_names, m)?)?;
     m.add_function(wrap_pyfunction!(measure::examples, m)?)?;
     m.add_function(wrap_pyfunction!(live::live, m)?)?;

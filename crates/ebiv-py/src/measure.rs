@@ -308,7 +308,7 @@ pub fn piv<'py>(
                 watch.progress(done.index as u64 + 1, total);
                 watch.check()
             })?;
-        series.calibration = run.calibration;
+        run.finish_series(&mut series)?;
         if write_output {
             ebiv::export::write_field(&series, &run.output)?;
         }
@@ -533,11 +533,47 @@ pub fn examples() -> Vec<(&'static str, &'static str)> {
     EXAMPLES.iter().map(|e| (e.0, e.1)).collect()
 }
 
+/// Quantities derived from the velocity gradient of a field series (a dataset structure or
+/// a field file), as `ebiv derive` computes them; `output=` also writes the file (.nc, .csv
+/// or .npz). Returns the dataset structure of the field with the quantities.
+#[pyfunction]
+#[pyo3(signature = (field, quantities="all", mm_per_px=None, output=None))]
+pub fn derive<'py>(
+    py: Python<'py>,
+    field: &Bound<'py, PyAny>,
+    quantities: &str,
+    mm_per_px: Option<f64>,
+    output: Option<PathBuf>,
+) -> PyResult<Bound<'py, PyDict>> {
+    let quantities = ebiv::derived::parse_quantities(quantities)
+        .map_err(|m| PyValueError::new_err(format!("invalid parameter `quantities`: {m}")))?;
+    if let Some(path) = &output {
+        check_output(path, "output")?;
+        ebiv::derived::check_output(path).py_err()?;
+    }
+    let read_options = FieldReadOptions {
+        mm_per_px,
+        ..FieldReadOptions::default()
+    };
+    let mut series = series_of(field, &read_options)?;
+    series.scale_if_uncalibrated(mm_per_px);
+    let series = py
+        .detach(|| -> ebiv::Result<_> {
+            ebiv::derived::add_derived(&mut series, &quantities)?;
+            if let Some(path) = &output {
+                ebiv::export::write_field(&series, path)?;
+            }
+            Ok(series)
+        })
+        .py_err()?;
+    series_to_py(py, &series)
+}
+
 /// Flow statistics of a field series (a dataset structure or a field file), as `ebiv stats`
 /// computes them; `output=` also writes the file (.nc or .csv). Returns the dataset
 /// structure of the statistics' NetCDF file.
 #[pyfunction]
-#[pyo3(signature = (field, period=None, phases=8, phase_origin=None, include_replaced=false, mm_per_px=None, output=None))]
+#[pyo3(signature = (field, period=None, phases=8, phase_origin=None, include_replaced=false, mm_per_px=None, output=None, triggers=None, trigger_polarity="rising", trigger_channel=None, reader_options=None))]
 #[allow(clippy::too_many_arguments)]
 pub fn stats<'py>(
     py: Python<'py>,
@@ -548,6 +584,10 @@ pub fn stats<'py>(
     include_replaced: bool,
     mm_per_px: Option<f64>,
     output: Option<PathBuf>,
+    triggers: Option<PathBuf>,
+    trigger_polarity: &str,
+    trigger_channel: Option<u8>,
+    reader_options: Option<&Bound<'py, PyDict>>,
 ) -> PyResult<Bound<'py, PyDict>> {
     let duration = |name: &str, value: Option<&Bound<'py, PyAny>>| -> PyResult<Option<i64>> {
         value
@@ -560,8 +600,15 @@ pub fn stats<'py>(
             "invalid parameter `phases`: must be 1 to 10000, got {phases}"
         ))
     })?;
-    let options = ebiv::statistics::StatsOptions {
+    let polarity = ebiv::statistics::TriggerPolarity::parse(trigger_polarity).ok_or_else(|| {
+        PyValueError::new_err(format!(
+            "invalid parameter `trigger_polarity`: `{trigger_polarity}` is not rising, falling or any"
+        ))
+    })?;
+    let reader_options = crate::recording::read_options(reader_options)?;
+    let mut options = ebiv::statistics::StatsOptions {
         period_us: duration("period", period)?,
+        triggers_us: None,
         phases,
         phase_origin_us: duration("phase_origin", phase_origin)?,
         include_replaced,
@@ -576,6 +623,16 @@ pub fn stats<'py>(
     let series = series_of(field, &read_options)?;
     let statistics = py
         .detach(|| -> ebiv::Result<_> {
+            if let Some(recording) = &triggers {
+                let times = ebiv::statistics::triggers_for(
+                    &series,
+                    recording,
+                    &reader_options,
+                    polarity,
+                    trigger_channel,
+                )?;
+                options.triggers_us = Some(times.times_us);
+            }
             let st = ebiv::statistics::flow_statistics(&series, &options)?;
             if let Some(path) = &output {
                 ebiv::export::write_statistics(&st, &series.attributes, path)?;

@@ -54,7 +54,7 @@ pub fn index(
 }
 
 /// Reader options from keywords, any other keyword a `ValueError`.
-fn read_options(keywords: Option<&Bound<'_, PyDict>>) -> PyResult<ReadOptions> {
+pub(crate) fn read_options(keywords: Option<&Bound<'_, PyDict>>) -> PyResult<ReadOptions> {
     let mut options = ReadOptions::default();
     if let Some(keywords) = keywords {
         for key in keywords.keys() {

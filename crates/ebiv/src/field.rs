@@ -472,6 +472,9 @@ pub struct FieldSeries {
     /// settings. The writers add the software, units, axis convention, time basis and
     /// status legend themselves.
     pub attributes: Vec<(String, String)>,
+    /// Quantities derived from the velocity gradient ([`crate::derived`]), written next to
+    /// `u` and `v`; empty unless asked for.
+    pub derived: Vec<crate::derived::DerivedField>,
 }
 
 impl FieldSeries {
@@ -497,12 +500,26 @@ impl FieldSeries {
             time_origin_us: None,
             ground_truth: false,
             attributes: Vec::new(),
+            derived: Vec::new(),
         }
     }
 
     /// An empty series on a grid, to which fields are appended with [`FieldSeries::push`].
     pub fn on_grid(x: Vec<f64>, y: Vec<f64>) -> Self {
         FieldSeries::new(x, y, Vec::new())
+    }
+
+    /// Give a series without a calibration of its own the scale `mm_per_px` (origin at
+    /// (0, 0) px, y down), so that it is written in mm and m/s (as `ebiv stats` and `ebiv
+    /// derive --mm-per-px` do); a series with a calibration keeps it.
+    pub fn scale_if_uncalibrated(&mut self, mm_per_px: Option<f64>) {
+        if let (Some(mm_per_px), None) = (mm_per_px, self.calibration) {
+            self.calibration = Some(Calibration {
+                mm_per_px,
+                origin_px: [0.0, 0.0],
+                y_up: false,
+            });
+        }
     }
 
     /// Flat index of `(t, row, column)`.
@@ -516,8 +533,15 @@ impl FieldSeries {
         self.x.len() * self.y.len()
     }
 
-    /// Append a field at time `t_us`; it must lie on this series' grid.
+    /// Append a field at time `t_us`; it must lie on this series' grid, and the series must
+    /// hold no derived quantities (they would not cover the new field).
     pub fn push(&mut self, t_us: i64, field: &VectorField) -> crate::Result<()> {
+        if !self.derived.is_empty() {
+            return Err(crate::Error::parameter(
+                "field",
+                "the series holds derived quantities; add fields before deriving them",
+            ));
+        }
         if field.x != self.x || field.y != self.y {
             return Err(crate::Error::parameter(
                 "field",

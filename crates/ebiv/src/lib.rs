@@ -5,17 +5,19 @@
 //! Exp. Fluids 63:101 (2022). This crate holds all the science; the `ebiv` binary in
 //! `ebiv-cli` only parses options and reports progress.
 //!
-//! Layers (lowest first): data types ([`event`], [`field`], [`grid`]), file input/output
-//! ([`io`]) and simulation ([`sim`]), tiled time slabs ([`volume`]) and deformation by a
-//! predicted motion ([`deform`]), correlation peaks shared by every method ([`peak`]), window
-//! estimators ([`estimate`]), validation ([`validate`]), the one multi-pass engine and run
-//! planning ([`process`]), image frames read from files or rebuilt from events and pulse
-//! timing ([`frame`]), cross-correlation PIV on frames and pulsed EBIV ([`piv`]), the settings
-//! of a run ([`settings`]), outputs ([`export`], [`render`]).
+//! Layers (lowest first): data types ([`event`], [`field`], [`grid`]) and quantities derived
+//! from a field's velocity gradient ([`derived`]), file input/output ([`io`]) and simulation
+//! ([`sim`]), tiled time slabs ([`volume`]) and deformation by a predicted motion
+//! ([`deform`]), correlation peaks shared by every method ([`peak`]), window estimators
+//! ([`estimate`]), validation ([`validate`]), the one multi-pass engine and run planning
+//! ([`process`]), image frames read from files or rebuilt from events and pulse timing
+//! ([`frame`]), cross-correlation PIV on frames and pulsed EBIV ([`piv`]), the settings of a
+//! run ([`settings`]), outputs ([`export`], [`render`]).
 
 pub mod activity;
 pub mod assess;
 pub mod deform;
+pub mod derived;
 pub mod error;
 pub mod estimate;
 pub mod event;

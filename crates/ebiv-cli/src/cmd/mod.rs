@@ -5,6 +5,7 @@ pub mod assess;
 pub mod bench;
 pub mod convert;
 pub mod demo;
+pub mod derive;
 pub mod frames;
 pub mod index;
 pub mod info;

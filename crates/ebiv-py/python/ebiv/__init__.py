@@ -22,7 +22,7 @@ from __future__ import annotations
 
 import os
 import sys
-from typing import Any, Callable, Dict, Iterator, Mapping, NamedTuple, Optional, Tuple, Union
+from typing import Any, Callable, Dict, Iterator, Mapping, NamedTuple, Optional, Sequence, Tuple, Union
 
 import numpy as np
 
@@ -37,6 +37,7 @@ __all__ = [
     "assess",
     "assess_tracks",
     "bin_tracks",
+    "derive",
     "examples",
     "index",
     "live",
@@ -380,6 +381,10 @@ def stats(
     include_replaced: bool = False,
     mm_per_px: Optional[float] = None,
     output: Optional[PathLike] = None,
+    triggers: Optional[Union[PathLike, "Recording"]] = None,
+    trigger_polarity: str = "rising",
+    trigger_channel: Optional[int] = None,
+    **reader_options: Any,
 ) -> Any:
     """Flow statistics of a field series (a dataset from :func:`process`, or a field file),
     as ``ebiv stats`` computes them: at every node ``u_mean``, ``v_mean``, ``u_rms``,
@@ -387,11 +392,46 @@ def stats(
     averaged. Invalid vectors are left out; replaced ones too unless ``include_replaced``.
     ``period`` (µs or ``"20ms"``) sorts the fields into ``phases`` bins of the period, from
     ``phase_origin`` (default: the first field's time), adding the dimension ``phase``.
-    ``output=`` also writes the file (.nc or .csv). Returns an ``xarray.Dataset`` identical
-    to ``xarray.open_dataset`` of the command's .nc file (a dict without xarray)."""
+    ``triggers`` (the recording the fields were measured from: a path, with reader options
+    as keywords, or a :class:`Recording`) sorts them by their fraction of the interval
+    between the trigger edges (``trigger_polarity``: rising, falling or any; on
+    ``trigger_channel``) around them; fields outside the triggers are left out
+    (``fields_outside_triggers``). ``output=`` also writes the file (.nc or .csv). Returns an
+    ``xarray.Dataset`` identical to ``xarray.open_dataset`` of the command's .nc file (a dict
+    without xarray)."""
+    if isinstance(triggers, Recording):
+        for key, value in triggers.reader_options.items():
+            reader_options.setdefault(key, value)
+        triggers = triggers.path
     raw = _ebiv.stats(_field(field), period, phases, phase_origin, include_replaced, mm_per_px,
-                      None if output is None else os.fspath(output))
+                      None if output is None else os.fspath(output),
+                      None if triggers is None else os.fspath(triggers), trigger_polarity,
+                      trigger_channel, reader_options or None)
     return _result(raw, False)
+
+
+def derive(
+    field: Any,
+    quantities: Union[str, Sequence[str]] = "all",
+    *,
+    mm_per_px: Optional[float] = None,
+    output: Optional[PathLike] = None,
+    decode_times: bool = True,
+) -> Any:
+    """Quantities derived from the velocity gradient of a field series (a dataset from
+    :func:`process`, or a field file), as ``ebiv derive`` computes them: ``vorticity``
+    (dv/dx - du/dy), ``divergence``, the strain rates ``e_xx``, ``e_yy``, ``e_xy`` and
+    ``swirling_strength``; ``quantities`` names them (a list, or comma-separated text;
+    ``"strain"``, ``"all"``). Central differences, one-sided at the grid's edges and next to
+    invalid vectors, NaN where neither neighbour has a value (docs/derived.md); 1/ms, or 1/s
+    with a calibration (``mm_per_px`` for files without one). ``output=`` also writes the
+    file (.nc, .csv or .npz). Returns the field as :func:`process` does, with the quantities
+    as variables."""
+    if not isinstance(quantities, str):
+        quantities = ",".join(quantities)
+    raw = _ebiv.derive(_field(field), quantities, mm_per_px,
+                       None if output is None else os.fspath(output))
+    return _result(raw, decode_times)
 
 
 def examples() -> Dict[str, str]:

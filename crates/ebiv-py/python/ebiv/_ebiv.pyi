@@ -208,8 +208,21 @@ def stats(
     include_replaced: bool = False,
     mm_per_px: Optional[float] = None,
     output: Optional[str] = None,
+    triggers: Optional[str] = None,
+    trigger_polarity: str = "rising",
+    trigger_channel: Optional[int] = None,
+    reader_options: Optional[Dict[str, Any]] = None,
 ) -> _RawDataset:
     """``ebiv stats``: the statistics' dataset structure."""
+    ...
+
+def derive(
+    field: Any,
+    quantities: str = "all",
+    mm_per_px: Optional[float] = None,
+    output: Optional[str] = None,
+) -> _RawDataset:
+    """``ebiv derive``: the field's dataset structure with the derived quantities."""
     ...
 
 def track(

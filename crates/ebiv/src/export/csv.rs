@@ -23,12 +23,15 @@
 //! on. With a calibration the physical columns `x_mm,y_mm,u_m_s,v_m_s,u_unc_m_s,v_unc_m_s`
 //! follow (`u_mm,v_mm,u_unc_mm,v_unc_mm` for displacements; y and v positive up when the
 //! calibration says `y_up`, the uncertainties scaled but never negated). One line per vector,
-//! time-major, then rows, then columns. Invalid values are written as `NaN`; floats in their
+//! time-major, then rows, then columns. Quantities derived from the velocity gradient
+//! ([`FieldSeries::derived`]) come last, each in image units (`vorticity_1_ms`; `_1` for
+//! displacements) and, with a calibration, physical ones (`vorticity_1_s`). Invalid values are written as `NaN`; floats in their
 //! shortest exact form.
 //!
 //! [`TimeBasis`]: crate::field::TimeBasis
 
 use super::{check, write_atomic, Physical};
+use crate::derived::DerivedQuantity;
 use crate::error::Result;
 use crate::field::{FieldSeries, TimeBasis};
 use std::io::Write;
@@ -62,6 +65,15 @@ pub fn csv_header(field: &FieldSeries) -> String {
         header.push_str(&format!(",x_mm,y_mm,u_{physical},v_{physical}"));
         if !field.ground_truth {
             header.push_str(&format!(",u_unc_{physical},v_unc_{physical}"));
+        }
+    }
+    for d in &field.derived {
+        let name = d.quantity.name();
+        let image = suffix(DerivedQuantity::unit(field.quantity, None));
+        header.push_str(&format!(",{name}_{image}"));
+        if let Some(c) = &field.calibration {
+            let physical = suffix(DerivedQuantity::unit(field.quantity, Some(c)));
+            header.push_str(&format!(",{name}_{physical}"));
         }
     }
     header
@@ -115,6 +127,14 @@ pub(crate) fn write_csv_row(
         write!(w, ",{},{},{},{}", p.x_mm[col], p.y_mm[row], p.u[i], p.v[i])?;
         if !field.ground_truth {
             write!(w, ",{},{}", p.u_unc[i], p.v_unc[i])?;
+        }
+    }
+    for d in &field.derived {
+        let value = d.values[i];
+        write!(w, ",{value}")?;
+        if let Some(c) = &field.calibration {
+            let k = d.quantity.written_factor(field.quantity, Some(c));
+            write!(w, ",{}", (value as f64 * k + 0.0) as f32)?;
         }
     }
     Ok(())

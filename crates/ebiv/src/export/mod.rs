@@ -59,7 +59,11 @@ pub const FIELD_EXTENSIONS: [(&str, &str); 6] = [
 /// ([`write_field_netcdf`]), `.npz` ([`write_field_npz`]), `.csv` ([`write_field_csv`]),
 /// `.dat` or `.tec` ([`write_field_tecplot`]), `.vtk` ([`write_field_vtk`]).
 pub fn write_field(field: &FieldSeries, path: &Path) -> Result<()> {
-    match field_extension(path)?.as_str() {
+    let extension = field_extension(path)?;
+    if !field.derived.is_empty() {
+        crate::derived::check_output(path)?;
+    }
+    match extension.as_str() {
         "nc" => write_field_netcdf(field, path),
         "npz" => write_field_npz(field, path),
         "csv" => write_field_csv(field, path),

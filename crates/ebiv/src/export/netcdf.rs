@@ -26,6 +26,7 @@
 //! is not repeated. NetCDF-3 is read natively by MATLAB `ncread`, xarray and ParaView.
 
 use super::{axis_convention, check, partial_path, sanitize_name, time_comment, Written, SOFTWARE};
+use crate::derived::DerivedQuantity;
 use crate::error::{Error, Result};
 use crate::field::{FieldSeries, Status, TimeBasis};
 use netcdf3::{DataSet, FileWriter, Version};
@@ -252,11 +253,42 @@ pub fn netcdf_dataset(field: &FieldSeries) -> std::result::Result<Dataset, Strin
             .expect("attributes name variables of the dataset");
         v.attributes.push((key.into(), value));
     }
+    variables.extend(derived_variables(field));
     Ok(Dataset {
         dims: vec![("time".into(), nt), ("y".into(), ny), ("x".into(), nx)],
         variables,
         attributes: global_attributes(field),
     })
+}
+
+/// The derived quantities of `field` ([`crate::derived`]) as written: in 1/s with a
+/// calibration, 1/ms without (1 for displacements), odd quantities flipped with y.
+fn derived_variables(field: &FieldSeries) -> Vec<Variable> {
+    let unit = DerivedQuantity::unit(field.quantity, field.calibration.as_ref());
+    let y_up = field.calibration.is_some_and(|c| c.y_up);
+    field
+        .derived
+        .iter()
+        .map(|d| {
+            let mut v = variable(
+                d.quantity.name(),
+                vec!["time", "y", "x"],
+                Values::F32(DerivedQuantity::written(d, field)),
+            );
+            v.attributes = vec![
+                (
+                    "long_name".into(),
+                    Attribute::Text(d.quantity.long_name(y_up)),
+                ),
+                ("units".into(), Attribute::Text(unit.into())),
+                (
+                    "comment".into(),
+                    Attribute::Text(crate::derived::SCHEME.into()),
+                ),
+            ];
+            v
+        })
+        .collect()
 }
 
 fn variable(name: &str, dims: Vec<&str>, values: Values) -> Variable {

@@ -9,7 +9,9 @@
 //! [`Status`]), `peak`, `peak_ratio` (`<f4`), `event_count`, `slab_us` (`<u4`; the time slab
 //! each vector was measured over, µs, 0 where there is none). With a calibration also `x_mm`,
 //! `y_mm` (`<f8`) and `u_m_s`, `v_m_s`, `u_unc_m_s`, `v_unc_m_s` (`<f4`; y and v positive up
-//! when `y_up`, the uncertainties scaled but never negated). `attributes` is a
+//! when `y_up`, the uncertainties scaled but never negated). Derived quantities
+//! ([`crate::derived`]) under their names (`vorticity`, `<f4`, image coordinates, 1/ms), and
+//! for calibrated velocities also in 1/s (`vorticity_1_s`, flipped with y). `attributes` is a
 //! 1-D unicode array (`<U…`) of `key=value` strings: axis convention, units, status legend,
 //! what `slab_us` holds, calibration, software and the series' attributes. Everything loads
 //! with `numpy.load(path)` without pickles.
@@ -130,6 +132,18 @@ pub fn write_field_npz(field: &FieldSeries, path: &Path) -> Result<()> {
         members.push(("v_m_s", npy(&p.v, &shape)));
         members.push(("u_unc_m_s", npy(&p.u_unc, &shape)));
         members.push(("v_unc_m_s", npy(&p.v_unc, &shape)));
+    }
+    let physical_names: Vec<String> = field
+        .derived
+        .iter()
+        .map(|d| format!("{}_1_s", d.quantity.name()))
+        .collect();
+    for (d, physical) in field.derived.iter().zip(&physical_names) {
+        members.push((d.quantity.name(), npy(&d.values, &shape)));
+        if field.calibration.is_some() && field.quantity == crate::field::Quantity::Velocity {
+            let written = crate::derived::DerivedQuantity::written(d, field);
+            members.push((physical, npy(&written, &shape)));
+        }
     }
     let attributes: Vec<String> = metadata(field)
         .into_iter()

@@ -2,12 +2,13 @@
 //!
 //! NetCDF: dimensions `(y, x)`, or `(phase, y, x)` with phase averaging; variables `u_mean`,
 //! `v_mean`, `u_rms`, `v_rms` (`double`, in the unit of the series), `uu`, `vv`, `uv` (in the
-//! square of that unit), `count` (`int`, the valid samples), and `phase` (µs from the phase origin, the
-//! centre of each bin). A calibrated series is written in m/s (and mm for `x_mm`, `y_mm`),
+//! square of that unit), `count` (`int`, the valid samples), and `phase` (the centre of each
+//! bin: µs from the phase origin by period, a fraction 0–1 of the trigger interval by
+//! trigger). A calibrated series is written in m/s (and mm for `x_mm`, `y_mm`),
 //! with y and v pointing up when the calibration says so, which flips the sign of `v_mean`
 //! and `uv`. Nodes without two samples have NaN stresses; without one, NaN means.
 //!
-//! CSV: one line per node (`phase` first with phase averaging), the same quantities, the
+//! CSV: one line per node (`phase_us`, or `phase` by trigger, first with phase averaging), the same quantities, the
 //! stresses' unit suffixed `_sq` (`uu_px_ms_sq`).
 //!
 //! Global attributes state the axis convention (which way y and v point), the calibration,
@@ -58,7 +59,7 @@ fn quantities(st: &FlowStatistics) -> (Vec<Vec<f64>>, String, String) {
 
 /// The NetCDF dataset of `st`, with `attributes` (the source's) added.
 pub fn statistics_dataset(st: &FlowStatistics, attributes: &[(String, String)]) -> Dataset {
-    let phased = !st.phase_centres_us.is_empty();
+    let phased = st.phased();
     let grid: Vec<String> = if phased {
         vec!["phase".into(), "y".into(), "x".into()]
     } else {
@@ -71,13 +72,23 @@ pub fn statistics_dataset(st: &FlowStatistics, attributes: &[(String, String)]) 
             name: "phase".into(),
             dims: vec!["phase".into()],
             values: Values::F64(st.phase_centres_us.clone()),
-            attributes: vec![
-                (
-                    "long_name".into(),
-                    text("centre of the phase bin, from the phase origin"),
-                ),
-                ("units".into(), text("us")),
-            ],
+            attributes: if st.trigger.is_some() {
+                vec![
+                    (
+                        "long_name".into(),
+                        text("centre of the phase bin, fraction of the interval between consecutive triggers"),
+                    ),
+                    ("units".into(), text("1")),
+                ]
+            } else {
+                vec![
+                    (
+                        "long_name".into(),
+                        text("centre of the phase bin, from the phase origin"),
+                    ),
+                    ("units".into(), text("us")),
+                ]
+            },
         });
     }
     for (name, values, long) in [
@@ -175,6 +186,28 @@ pub fn statistics_dataset(st: &FlowStatistics, attributes: &[(String, String)]) 
             Attribute::F64(vec![st.phase_origin_us as f64]),
         ));
     }
+    if let Some(tr) = &st.trigger {
+        globals.push((
+            "phase_by".to_string(),
+            text("trigger: phase = (t - last trigger at or before t) / (next trigger - that trigger)"),
+        ));
+        globals.push((
+            "triggers".to_string(),
+            Attribute::F64(vec![tr.triggers as f64]),
+        ));
+        globals.push((
+            "trigger_span_us".to_string(),
+            Attribute::F64(vec![tr.span_us.0 as f64, tr.span_us.1 as f64]),
+        ));
+        globals.push((
+            "trigger_interval_mean_us".to_string(),
+            Attribute::F64(vec![tr.mean_interval_us]),
+        ));
+        globals.push((
+            "fields_outside_triggers".to_string(),
+            Attribute::F64(vec![tr.fields_outside as f64]),
+        ));
+    }
     if let Some(c) = &st.calibration {
         globals.push(("mm_per_px".to_string(), Attribute::F64(vec![c.mm_per_px])));
         globals.push((
@@ -218,11 +251,16 @@ pub fn write_statistics(
 fn write_statistics_csv(st: &FlowStatistics, path: &Path) -> Result<()> {
     let (values, unit, _) = quantities(st);
     let suffix = unit.replace('/', "_");
-    let phased = !st.phase_centres_us.is_empty();
+    let phased = st.phased();
     let nodes = st.x.len() * st.y.len();
     write_atomic(path, |w| {
         if phased {
-            write!(w, "phase_us,")?;
+            let name = if st.trigger.is_some() {
+                "phase"
+            } else {
+                "phase_us"
+            };
+            write!(w, "{name},")?;
         }
         write!(w, "x_px,y_px")?;
         for (name, _) in QUANTITIES {

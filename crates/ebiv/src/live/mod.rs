@@ -185,6 +185,8 @@ pub struct LiveStart {
     pub time_origin_us: i64,
     /// Positions in mm and velocities in m/s in the outputs.
     pub calibration: Option<Calibration>,
+    /// Quantities derived from the velocity gradient of each field.
+    pub derive: Vec<crate::derived::DerivedQuantity>,
     /// Time between fields, µs.
     pub step_us: i64,
     /// One line: input, field times, method, sensor, passes.
@@ -200,6 +202,7 @@ impl LiveStart {
         series.time_origin_us = Some(self.time_origin_us);
         series.calibration = self.calibration;
         series.push(t0_us, field)?;
+        crate::derived::add_derived(&mut series, &self.derive)?;
         Ok(series)
     }
 }

@@ -126,6 +126,7 @@ impl EstimatorTask for LiveTask<'_> {
             attributes,
             time_origin_us: 0,
             calibration: run.calibration,
+            derive: run.derive.clone(),
             step_us: step,
             description: String::new(),
         };

@@ -41,6 +41,37 @@ pub fn inferno(s: f32) -> [u8; 3] {
     std::array::from_fn(|k| (a[k] as f32 + f * (b[k] as f32 - a[k] as f32)).round() as u8)
 }
 
+/// Key points of ColorBrewer's diverging "RdBu" scheme, 11 classes (Brewer, colorbrewer2.org),
+/// from blue to red: white in the middle, for signed quantities centred on 0.
+const BLUE_RED: [[u8; 3]; 11] = [
+    [5, 48, 97],
+    [33, 102, 172],
+    [67, 147, 195],
+    [146, 197, 222],
+    [209, 229, 240],
+    [247, 247, 247],
+    [253, 219, 199],
+    [244, 165, 130],
+    [214, 96, 77],
+    [178, 24, 43],
+    [103, 0, 31],
+];
+
+/// Diverging colour at `s` ∈ [0, 1]: blue below 0.5, white at 0.5, red above, linearly
+/// interpolated between the key points of ColorBrewer's RdBu.
+pub fn blue_red(s: f32) -> [u8; 3] {
+    let s = if s.is_finite() {
+        s.clamp(0.0, 1.0)
+    } else {
+        0.5
+    };
+    let pos = s * (BLUE_RED.len() - 1) as f32;
+    let i = (pos.floor() as usize).min(BLUE_RED.len() - 2);
+    let f = pos - i as f32;
+    let (a, b) = (BLUE_RED[i], BLUE_RED[i + 1]);
+    std::array::from_fn(|k| (a[k] as f32 + f * (b[k] as f32 - a[k] as f32)).round() as u8)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -55,6 +86,14 @@ mod tests {
             future[0] == 255 && future[2] == 0,
             "future is red: {future:?}"
         );
+    }
+
+    #[test]
+    fn blue_red_is_white_in_the_middle_and_symmetric_in_lightness() {
+        assert_eq!(blue_red(0.5), [247, 247, 247]);
+        assert!(blue_red(0.0)[2] > blue_red(0.0)[0], "negative is blue");
+        assert!(blue_red(1.0)[0] > blue_red(1.0)[2], "positive is red");
+        assert_eq!(blue_red(f32::NAN), blue_red(0.5));
     }
 
     #[test]

@@ -7,6 +7,7 @@ mod axes;
 mod colormap;
 mod draw;
 mod event_image;
+mod field_maps;
 pub mod font;
 mod frame_image;
 mod histogram;
@@ -15,6 +16,7 @@ mod line_plot;
 mod palette;
 pub mod plot;
 mod rate_map;
+mod scalar_map;
 pub mod tracks;
 mod vector_map;
 
@@ -24,8 +26,9 @@ pub use assessment::{
     scatter_figure, write_agreement_report, write_assessment_report,
 };
 pub use axes::{ColourBar, ImageFigureStyle, MAX_PIXEL_SCALE};
-pub use colormap::{inferno, time_code};
+pub use colormap::{blue_red, inferno, time_code};
 pub use event_image::{event_figure, time_code_bar, time_coded_image, TimeCodedImage};
+pub use field_maps::{field_map, series_range, FieldMapStyle, MapQuantity};
 pub use frame_image::frame_image;
 pub use histogram::{
     histogram, peak_locking_index, peak_locking_noise, valid_components, velocity_histograms,
@@ -34,6 +37,7 @@ pub use histogram::{
 pub use histogram2d::{histogram2d_figure, Histogram2d};
 pub use line_plot::{line_plot, LinePlot, Series, SeriesStyle, XAxis, SERIES_COLOURS};
 pub use rate_map::{EventRateMap, RateMapImage};
+pub use scalar_map::{grid_geometry, scalar_map, scalar_range, ScalarMapStyle};
 pub use tracks::{track_histograms, track_map, TrackMapStyle};
 pub use vector_map::{auto_stride, vector_map, VectorMapStyle, MAX_ARROWS_ACROSS, MIN_ARROW_GAP};
 

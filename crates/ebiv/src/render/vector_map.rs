@@ -73,7 +73,12 @@ fn quantile(values: &mut [f32], q: f64) -> Option<f32> {
 
 /// Colour range: 0 to the 99th percentile of `mags` rounded up to two significant digits.
 pub(crate) fn auto_range(mags: &[f32]) -> (f32, f32) {
-    let top = quantile(&mut mags.to_vec(), 0.99).unwrap_or(0.0) as f64;
+    auto_range_at(mags, 0.99)
+}
+
+/// Colour range: 0 to the `q` quantile of `mags` rounded up to two significant digits.
+pub(crate) fn auto_range_at(mags: &[f32], q: f64) -> (f32, f32) {
+    let top = quantile(&mut mags.to_vec(), q).unwrap_or(0.0) as f64;
     if !(top.is_finite() && top > 0.0) {
         return (0.0, 1.0);
     }
@@ -178,12 +183,64 @@ pub fn vector_map(
     background: Option<&RgbImage>,
     style: &VectorMapStyle,
 ) -> RgbImage {
+    let layer = match background {
+        Some(image) => Layer::Image(image),
+        None => {
+            let range = style
+                .magnitude_range
+                .filter(|(a, b)| a.is_finite() && b.is_finite() && b > a)
+                .unwrap_or_else(|| auto_range(&magnitudes(&field.u, &field.v, &field.status)));
+            let values = (0..field.len())
+                .map(|i| {
+                    let m = (field.u[i] as f64).hypot(field.v[i] as f64) as f32;
+                    if field.status[i].has_value() && m.is_finite() {
+                        m
+                    } else {
+                        f32::NAN
+                    }
+                })
+                .collect();
+            Layer::Scalar(ScalarLayer {
+                values,
+                range,
+                colours: inferno,
+                label: format!("|V| [{}]", style.units),
+            })
+        }
+    };
+    draw_map(field, geometry, layer, style, true)
+}
+
+/// What fills the plot area of a map.
+pub(crate) enum Layer<'a> {
+    /// An image (e.g. events), dimmed, without a colour bar.
+    Image(&'a RgbImage),
+    /// Values at the nodes, interpolated bilinearly, with a colour bar.
+    Scalar(ScalarLayer),
+}
+
+/// Values at the nodes of a field (NaN: no data) drawn in colour.
+pub(crate) struct ScalarLayer {
+    /// One value per node, indexed like the field.
+    pub values: Vec<f32>,
+    /// Values at the ends of the colour map.
+    pub range: (f32, f32),
+    /// The colour map.
+    pub colours: fn(f32) -> Colour,
+    /// The colour bar's title, with units.
+    pub label: String,
+}
+
+/// A map of `field` over `layer`, with arrows when `arrows`.
+pub(crate) fn draw_map(
+    field: &VectorField,
+    geometry: Geometry,
+    layer: Layer<'_>,
+    style: &VectorMapStyle,
+    arrows: bool,
+) -> RgbImage {
     let (w, h) = extent(geometry);
     let mags = magnitudes(&field.u, &field.v, &field.status);
-    let range = style
-        .magnitude_range
-        .filter(|(a, b)| a.is_finite() && b.is_finite() && b > a)
-        .unwrap_or_else(|| auto_range(&mags));
     let k = pixel_scale(geometry, style);
     let spacing = grid_spacing(&field.x, &field.y, (w, h)) * k;
     let stride = arrow_stride(&field.x, &field.y, geometry, style);
@@ -192,10 +249,13 @@ pub fn vector_map(
         .filter(|s| s.is_finite() && *s > 0.0)
         .unwrap_or_else(|| auto_scale(&mags, &field.x, &field.y, geometry) * stride as f64);
     let (pw, ph) = ((w * k).round().max(1.0), (h * k).round().max(1.0));
-    let bar = (style.colour_bar && background.is_none()).then(|| {
-        let range = (range.0 as f64, range.1 as f64);
-        ColourBar::linear(range, format!("|V| [{}]", style.units), inferno)
-    });
+    let bar = match &layer {
+        Layer::Scalar(l) if style.colour_bar => {
+            let range = (l.range.0 as f64, l.range.1 as f64);
+            Some(ColourBar::linear(range, l.label.clone(), l.colours))
+        }
+        _ => None,
+    };
     // One blank note line: the reference arrow and the vector counts are drawn into it.
     let (figure, mut img) = ImageFigure::new(
         (w, h),
@@ -206,9 +266,10 @@ pub fn vector_map(
     );
     let axes = figure.axes;
 
-    paint_plot(&mut img, &axes, field, background, range, geometry);
+    paint_plot(&mut img, &axes, field, &layer, geometry);
     let arrow = ArrowSize::for_spacing(spacing * stride as f64);
-    for r in (0..field.height()).step_by(stride) {
+    let rows = if arrows { field.height() } else { 0 };
+    for r in (0..rows).step_by(stride) {
         for c in (0..field.width()).step_by(stride) {
             let i = field.index(r, c);
             let p = (axes.px(field.x[c]), axes.py(field.y[r]));
@@ -232,7 +293,7 @@ pub fn vector_map(
     let row = figure.note_y(0);
     let mut key_end = x0;
     let median_len = 0.8 * spacing * stride as f64 / k / scale;
-    let reference = nice_floor(1.2 * median_len).filter(|r| r * scale * k >= 8.0);
+    let reference = nice_floor(1.2 * median_len).filter(|r| arrows && r * scale * k >= 8.0);
     if let Some(r) = reference {
         let len = r * scale * k;
         let y = row as f64 + 7.0;
@@ -269,30 +330,23 @@ fn nice_floor(x: f64) -> Option<f64> {
         .find(|&v| v <= x * (1.0 + 1e-9))
 }
 
-/// Fill the plot area: the dimmed background image, or the magnitude map (bilinear between
-/// nodes with a value; grey where the nearest node has none or outside the grid).
+/// Fill the plot area: the dimmed background image, or the values of a scalar layer (bilinear
+/// between nodes with a value; grey where the nearest node has none or outside the grid).
 fn paint_plot(
     img: &mut RgbImage,
     axes: &Axes,
     field: &VectorField,
-    background: Option<&RgbImage>,
-    range: (f32, f32),
+    layer: &Layer<'_>,
     geometry: Geometry,
 ) {
     let (w, h) = extent(geometry);
     let a = axes.area;
     let (pw, ph) = ((a.x1 - a.x0) as usize, (a.y1 - a.y0) as usize);
     let to_image = |i: usize, n: usize, len: f64| (i as f64 + 0.5) / n as f64 * len - 0.5;
-    let mags: Vec<f32> = (0..field.len())
-        .map(|i| {
-            let m = (field.u[i] as f64).hypot(field.v[i] as f64) as f32;
-            if field.status[i].has_value() && m.is_finite() {
-                m
-            } else {
-                f32::NAN
-            }
-        })
-        .collect();
+    let (background, mags, range, colours): (_, &[f32], _, fn(f32) -> Colour) = match layer {
+        Layer::Image(image) => (Some(*image), &[], (0.0, 1.0), inferno),
+        Layer::Scalar(l) => (None, &l.values, l.range, l.colours),
+    };
     let spacing = grid_spacing(&field.x, &field.y, (w, h));
     let cols: Vec<_> = (0..pw)
         .map(|i| bracket(&field.x, to_image(i, pw, w), spacing))
@@ -335,7 +389,7 @@ fn paint_plot(
                     }
                 }
                 let s = (sum / weight - range.0 as f64) / (range.1 as f64 - range.0 as f64);
-                *o = inferno(s as f32);
+                *o = colours(s as f32);
             }
         });
     for (j, row) in pixels.chunks(pw.max(1)).enumerate() {

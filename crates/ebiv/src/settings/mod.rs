@@ -23,6 +23,7 @@ pub use run::{describe_piv, Measurement, RunObserver, RunPlan};
 pub use table::{find, template, Setting};
 pub use value::{Duration, Kind, PixelList, Point, SettingValue, SlabLength, TextList};
 
+use crate::derived::DerivedList;
 use crate::estimate::corrsum::{CorrKernel, Weighting};
 use crate::estimate::motion::{Objective, SearchMethod};
 use crate::event::PolaritySelection;
@@ -106,6 +107,11 @@ settings! {
         /// Mask image of the sensor's size (PNG, TIFF, BMP): non-zero pixels are left out;
         /// windows centred on them are flagged `masked`.
         mask: Option<PathBuf> = None; "IMAGE";
+        /// Quantities derived from the velocity gradient, added to the output (.nc, .csv,
+        /// .npz): vorticity, divergence, e_xx, e_yy, e_xy, swirling_strength, strain (the
+        /// three e) or all, comma-separated (docs/derived.md). With `png`, also a map of the
+        /// first of them per field.
+        derive: Option<DerivedList> = None; "QTY[,QTY..]";
     }
     group "Method and time" {
         /// Estimator: corrsum (sum of correlation, fast), motion (motion compensation), piv

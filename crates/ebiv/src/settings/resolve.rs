@@ -3,13 +3,14 @@
 //! against each other.
 
 use super::{ProcessSettings, SlabLength};
+use crate::derived::DerivedQuantity;
 use crate::error::{Error, Result};
 use crate::estimate::adaptive::{AdaptiveSlab, AdaptiveSlabParams};
 use crate::estimate::corrsum::{CorrSumParams, SumOfCorrelation};
 use crate::estimate::motion::{ContrastMaximization, MotionParams};
 use crate::estimate::Estimator;
 use crate::event::Geometry;
-use crate::field::Calibration;
+use crate::field::{Calibration, FieldSeries};
 use crate::frame::events::FrameSpec;
 use crate::grid::{GridSpec, Mask};
 use crate::io::{EventSource, ReadOptions};
@@ -88,9 +89,18 @@ pub struct Resolved {
     pub calibration: Option<Calibration>,
     /// The mask image.
     pub mask: Option<PathBuf>,
+    /// Quantities derived from the velocity gradient, added to the series.
+    pub derive: Vec<DerivedQuantity>,
 }
 
 impl Resolved {
+    /// Give a measured `series` the run's calibration and derived quantities
+    /// ([`crate::derived`]), as it is written.
+    pub fn finish_series(&self, series: &mut FieldSeries) -> Result<()> {
+        series.calibration = self.calibration;
+        crate::derived::add_derived(series, &self.derive)
+    }
+
     /// The recording, or the first image with image input (for messages).
     pub fn input_path(&self) -> PathBuf {
         match &self.source {
@@ -313,6 +323,10 @@ impl ProcessSettings {
             }
             None => None,
         };
+        let derive = self.derive.as_ref();
+        if derive.is_some() {
+            crate::derived::check_output(&self.output)?;
+        }
         Ok(Resolved {
             source,
             method,
@@ -335,6 +349,7 @@ impl ProcessSettings {
             arrow_stride: self.arrow_stride,
             calibration,
             mask: self.mask.clone(),
+            derive: derive.map(|d| d.0.clone()).unwrap_or_default(),
         })
     }
 

@@ -108,7 +108,7 @@ impl Resolved {
         let warnings =
             check_found_events(source, &summary, &planned, polarity, all_empty_is_error)?;
         series.time_origin_us = Some(planned.time_origin_us);
-        series.calibration = self.calibration;
+        self.finish_series(&mut series)?;
         series.attributes.push(("source".into(), source.name()));
         Ok(Measurement {
             series,

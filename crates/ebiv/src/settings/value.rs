@@ -5,6 +5,7 @@
 //! (later) a Python keyword argument all become one, so every front end accepts the same
 //! spellings (`slab = "10ms"` and `--slab 10ms`; `window = [64, 40]` and `--window 64,40`).
 
+use crate::derived::DerivedList;
 use crate::estimate::corrsum::{CorrKernel, Weighting};
 use crate::estimate::motion::{Objective, SearchMethod};
 use crate::event::PolaritySelection;
@@ -312,6 +313,38 @@ impl SettingValue for TextList {
     fn to_toml(&self) -> Option<Value> {
         Some(Value::Array(
             self.0.iter().map(|s| Value::String(s.clone())).collect(),
+        ))
+    }
+}
+
+impl SettingValue for DerivedList {
+    fn from_text(text: &str) -> Result<Self, String> {
+        crate::derived::parse_quantities(text).map(DerivedList)
+    }
+
+    fn from_toml(value: &Value) -> Result<Self, String> {
+        match value {
+            Value::String(s) => Self::from_text(s),
+            Value::Array(items) => {
+                let names = items
+                    .iter()
+                    .map(|v| match v {
+                        Value::String(s) => Ok(s.clone()),
+                        other => Err(format!("`{other}` is not a quantity name")),
+                    })
+                    .collect::<Result<Vec<_>, _>>()?;
+                Self::from_text(&names.join(","))
+            }
+            other => Err(format!("`{other}` is not a list of quantity names")),
+        }
+    }
+
+    fn to_toml(&self) -> Option<Value> {
+        Some(Value::Array(
+            self.0
+                .iter()
+                .map(|q| Value::String(q.name().to_string()))
+                .collect(),
         ))
     }
 }

@@ -195,8 +195,44 @@ pub fn write_series_figures(
         write_gif(&frames, 200, &dir.join("animation.gif"))?;
         written.push_str(", animation.gif");
     }
+    if let Some(maps) = write_derived_maps(series, dir, run)? {
+        written.push_str(&format!(", {maps}"));
+    }
     println!("figures in {}: {written}", dir.display());
     Ok(())
+}
+
+/// With `derive`: a colour map of the first derived quantity per field, vectors on top;
+/// what was written, for the summary line.
+pub fn write_derived_maps(
+    series: &FieldSeries,
+    dir: &std::path::Path,
+    run: &Resolved,
+) -> Result<Option<String>, Error> {
+    let Some(&first) = run.derive.first() else {
+        return Ok(None);
+    };
+    let quantity = ebiv::render::MapQuantity::Derived(first);
+    let style = ebiv::render::FieldMapStyle {
+        vectors: true,
+        stride: run.arrow_stride.map(|s| s as usize),
+        range: None,
+        title: run
+            .input_path()
+            .file_name()
+            .unwrap_or_default()
+            .to_string_lossy()
+            .into_owned(),
+    };
+    for t in 0..series.t_us.len() {
+        let img = ebiv::render::field_map(series, t, quantity, &style)?;
+        save_png(&img, &dir.join(format!("{}_{t:04}.png", first.name())))?;
+    }
+    Ok(Some(format!(
+        "{} map(s) of {}",
+        series.t_us.len(),
+        first.name()
+    )))
 }
 
 #[cfg(test)]

@@ -66,7 +66,7 @@ pub fn run_images(run: &Resolved) -> Result<(), Error> {
     })?;
     bar.finish_and_clear();
     let seconds = started.elapsed().as_secs_f64();
-    series.calibration = run.calibration;
+    run.finish_series(&mut series)?;
     ebiv::export::write_field(&series, &run.output)?;
     println!(
         "{} vectors in {} field(s), {:.1} % valid ({} flagged by validation), in {seconds:.2} s",
@@ -89,8 +89,11 @@ pub fn run_images(run: &Resolved) -> Result<(), Error> {
         if figures.len() > 1 {
             write_gif(&figures, 200, &dir.join("animation.gif"))?;
         }
+        let maps = super::figures::write_derived_maps(&series, dir, run)?
+            .map(|m| format!(", {m}"))
+            .unwrap_or_default();
         println!(
-            "figures in {}: histograms.png and {} vector map(s)",
+            "figures in {}: histograms.png and {} vector map(s){maps}",
             dir.display(),
             series.t_us.len()
         );

@@ -2,6 +2,11 @@
 //! fluctuations (RMS) and the Reynolds stresses `u'u'`, `v'v'`, `u'v'`, over the valid
 //! vectors only, optionally per phase of a periodic flow (phase averaging).
 //!
+//! Phases come from a period (`period_us`: the phase of a field is its time since the phase
+//! origin modulo the period) or from trigger edges of the recording ([`triggers`]: the phase
+//! of a field at time t is (t − T_k) / (T_{k+1} − T_k) between the last trigger T_k at or
+//! before t and the next one; fields outside the triggers' span are left out and counted).
+//!
 //! Invalid vectors are left out, never counted as zero; replaced ones too unless asked for
 //! (an interpolated vector is no measurement). The moments are accumulated in one pass with
 //! Welford's update (Welford, Technometrics 4:419, 1962; the covariance form of Chan, Golub &
@@ -9,15 +14,24 @@
 //! Raffel et al., "Particle Image Velocimetry", 3rd ed., §9.1; the RMS is the square root of
 //! the normal stress.
 
+pub mod triggers;
+
 use crate::error::{Error, Result};
 use crate::field::{Calibration, FieldSeries, Quantity, Status};
+pub use triggers::{
+    read_trigger_times, triggers_for, TriggerPolarity, TriggerSummary, TriggerTimes,
+};
 
 /// How to average.
-#[derive(Debug, Clone, Copy, PartialEq, Default)]
+#[derive(Debug, Clone, PartialEq, Default)]
 pub struct StatsOptions {
     /// Phase averaging: the period of the flow, µs; `None` averages over all fields.
     pub period_us: Option<i64>,
-    /// Phase bins per period (with `period_us`).
+    /// Phase averaging by trigger: the trigger times, µs on the fields' clock (ascending);
+    /// the phase of a field is its fraction of the interval between the triggers around it.
+    /// Not with `period_us`.
+    pub triggers_us: Option<Vec<i64>>,
+    /// Phase bins per period or trigger interval (with `period_us` or `triggers_us`).
     pub phases: usize,
     /// The camera time, µs, at which phase 0 begins; `None`: the first field's time.
     pub phase_origin_us: Option<i64>,
@@ -35,7 +49,8 @@ pub struct FlowStatistics {
     pub y: Vec<f64>,
     /// Number of phases.
     pub phases: usize,
-    /// Centre of each phase bin, µs from the phase origin (empty without phase averaging).
+    /// Centre of each phase bin: µs from the phase origin by period, a fraction of the
+    /// trigger interval (0–1) by trigger; empty without phase averaging.
     pub phase_centres_us: Vec<f64>,
     /// Mean of u.
     pub u_mean: Vec<f64>,
@@ -61,12 +76,19 @@ pub struct FlowStatistics {
     pub phase_origin_us: i64,
     /// Whether replaced vectors were counted.
     pub include_replaced: bool,
+    /// Phase averaging by trigger: the triggers used and the fields left out.
+    pub trigger: Option<TriggerSummary>,
 }
 
 impl FlowStatistics {
     /// RMS of u: the square root of u'u'.
     pub fn u_rms(&self) -> Vec<f64> {
         self.uu.iter().map(|v| v.sqrt()).collect()
+    }
+
+    /// Whether the statistics are per phase (by period or by trigger).
+    pub fn phased(&self) -> bool {
+        self.period_us.is_some() || self.trigger.is_some()
     }
 
     /// RMS of v.
@@ -81,13 +103,31 @@ pub fn flow_statistics(series: &FieldSeries, options: &StatsOptions) -> Result<F
     if nt == 0 {
         return Err(Error::parameter("field", "the series holds no field"));
     }
-    if options.period_us.is_some() && !series.time_basis.is_camera_time() {
+    if options.period_us.is_some() && options.triggers_us.is_some() {
         return Err(Error::parameter(
-            "period",
+            "triggers",
+            "phase averaging is by period or by trigger, not both",
+        ));
+    }
+    let phase_option = if options.triggers_us.is_some() {
+        "triggers"
+    } else {
+        "period"
+    };
+    let by_phase = options.period_us.is_some() || options.triggers_us.is_some();
+    if by_phase && !series.time_basis.is_camera_time() {
+        return Err(Error::parameter(
+            phase_option,
             "the fields of image pairs carry no times; phase averaging needs a series in camera time",
         ));
     }
+    let trigger_phases = options
+        .triggers_us
+        .as_deref()
+        .map(|t| triggers::TriggerPhases::new(t, &series.t_us))
+        .transpose()?;
     let phases = match options.period_us {
+        None if trigger_phases.is_some() => check_phases(options.phases)?,
         None => 1,
         Some(p) if p <= 0 => {
             return Err(Error::parameter(
@@ -95,13 +135,7 @@ pub fn flow_statistics(series: &FieldSeries, options: &StatsOptions) -> Result<F
                 format!("must be positive, got {p} µs"),
             ))
         }
-        Some(_) if options.phases == 0 || options.phases > 10_000 => {
-            return Err(Error::parameter(
-                "phases",
-                format!("must be 1 to 10000, got {}", options.phases),
-            ))
-        }
-        Some(_) => options.phases,
+        Some(_) => check_phases(options.phases)?,
     };
     let nodes = nx * ny;
     let cells = phases
@@ -111,12 +145,16 @@ pub fn flow_statistics(series: &FieldSeries, options: &StatsOptions) -> Result<F
     let origin = options.phase_origin_us.unwrap_or(series.t_us[0]);
     let mut acc = vec![Moments::default(); cells];
     for (ti, &t) in series.t_us.iter().enumerate() {
-        let phase = match options.period_us {
-            None => 0,
-            Some(period) => {
+        let phase = match (options.period_us, &trigger_phases) {
+            (Some(period), _) => {
                 let into = (t as i128 - origin as i128).rem_euclid(period as i128);
                 ((into * phases as i128) / period as i128) as usize
             }
+            (None, Some(tp)) => match tp.bin(t, phases) {
+                Some(bin) => bin,
+                None => continue,
+            },
+            (None, None) => 0,
         };
         for node in 0..nodes {
             let i = ti * nodes + node;
@@ -129,11 +167,14 @@ pub fn flow_statistics(series: &FieldSeries, options: &StatsOptions) -> Result<F
             }
         }
     }
-    let phase_centres_us = match options.period_us {
-        None => Vec::new(),
-        Some(p) => (0..phases)
+    let phase_centres_us = match (options.period_us, &trigger_phases) {
+        (Some(p), _) => (0..phases)
             .map(|k| (k as f64 + 0.5) * p as f64 / phases as f64)
             .collect(),
+        (None, Some(_)) => (0..phases)
+            .map(|k| (k as f64 + 0.5) / phases as f64)
+            .collect(),
+        (None, None) => Vec::new(),
     };
     Ok(FlowStatistics {
         x: series.x.clone(),
@@ -146,13 +187,25 @@ pub fn flow_statistics(series: &FieldSeries, options: &StatsOptions) -> Result<F
         vv: acc.iter().map(|m| m.covariance(m.m_vv)).collect(),
         uv: acc.iter().map(|m| m.covariance(m.m_uv)).collect(),
         count: acc.iter().map(|m| m.n).collect(),
-        fields: nt,
+        fields: nt - trigger_phases.as_ref().map_or(0, |tp| tp.outside),
         quantity: series.quantity,
         calibration: series.calibration,
         period_us: options.period_us,
         phase_origin_us: origin,
         include_replaced: options.include_replaced,
+        trigger: trigger_phases.map(|tp| tp.summary()),
     })
+}
+
+/// `phases` if it is 1 to 10000.
+fn check_phases(phases: usize) -> Result<usize> {
+    if phases == 0 || phases > 10_000 {
+        return Err(Error::parameter(
+            "phases",
+            format!("must be 1 to 10000, got {phases}"),
+        ));
+    }
+    Ok(phases)
 }
 
 /// Running moments of (u, v) at one node (Welford's update).
