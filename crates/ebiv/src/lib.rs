@@ -16,6 +16,7 @@
 pub mod activity;
 pub mod assess;
 pub mod deform;
+pub mod denoise;
 pub mod error;
 pub mod estimate;
 pub mod event;

@@ -88,6 +88,8 @@ pub struct Resolved {
     pub calibration: Option<Calibration>,
     /// The mask image.
     pub mask: Option<PathBuf>,
+    /// The filters the recording is read through, `None` when none runs.
+    pub denoise: Option<crate::denoise::DenoiseSettings>,
 }
 
 impl Resolved {
@@ -99,9 +101,9 @@ impl Resolved {
         }
     }
 
-    /// The recording as a source of events, read with `options`.
+    /// The recording as a source of events, read with `options` and the run's denoising.
     pub fn event_source(&self, options: &ReadOptions) -> EventSource {
-        EventSource::file(self.input_path(), options)
+        EventSource::file(self.input_path(), options).denoised(self.denoise)
     }
 
     /// Open `source` and plan its field times ([`plan_fields`]) for a method whose fields
@@ -295,6 +297,10 @@ impl ProcessSettings {
             polarity: self.polarity,
             splat_sigma: self.splat,
         };
+        let denoise = self.denoise_settings();
+        if let Some(d) = &denoise {
+            d.check()?;
+        }
         let calibration = match self.mm_per_px {
             Some(mm_per_px) => {
                 let calibration = Calibration {
@@ -335,6 +341,7 @@ impl ProcessSettings {
             arrow_stride: self.arrow_stride,
             calibration,
             mask: self.mask.clone(),
+            denoise,
         })
     }
 
