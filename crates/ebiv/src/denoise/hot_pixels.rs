@@ -4,10 +4,15 @@
 //! above its neighbours whatever the scene. The filter counts each pixel's events over a
 //! leading learning interval of the recording — the first `denoise-hot-learn` from its first
 //! event, the whole recording when it is shorter — and removes every event of the pixels
-//! whose count is more than `denoise-hot-factor` times the mean count of the pixels with at
-//! least one event, and at least [`MIN_HOT_PIXEL_EVENTS`]. This is the rate test of
-//! Metavision's hot-pixel calibration and of v2e's / Delbruck's hot-pixel filters, made
-//! relative so that it does not depend on the scene's overall activity.
+//! whose count is more than `denoise-hot-factor` times the median count of their 8
+//! neighbours (fewer on the sensor's edge), and at least [`MIN_HOT_PIXEL_EVENTS`].
+//!
+//! The typical rate is taken locally, the way image sensors find defect pixels against the
+//! median of their neighbourhood, rather than from the whole sensor: in a seeded flow the
+//! pixels' rates spread widely (where particles pass, with the pixels' threshold mismatch),
+//! so a sensor-wide mean or an absolute rate either misses hot pixels in a busy scene or
+//! takes busy signal pixels for hot ones; a particle image lights neighbouring pixels
+//! together, a hot pixel alone. The median ignores a second hot pixel next to the first.
 //!
 //! Learning from a leading interval rather than from a pass over the whole file keeps the
 //! cost independent of the recording's length and lets a run over any part of it (a shard,
@@ -62,21 +67,27 @@ impl HotPixelLearner {
 
     /// The hot pixels by `factor` (see the module documentation).
     pub fn finish(self, factor: f64) -> HotPixelFilter {
+        let (w, h) = (self.counts.width, self.counts.height);
         let counts = &self.counts.values;
-        let (sum, active) = counts
-            .iter()
-            .filter(|&&c| c > 0)
-            .fold((0u64, 0u64), |(s, n), &c| (s + c as u64, n + 1));
-        let mean = if active > 0 {
-            sum as f64 / active as f64
-        } else {
-            0.0
-        };
-        let threshold = factor * mean;
-        let hot: Vec<bool> = counts
-            .iter()
-            .map(|&c| c >= MIN_HOT_PIXEL_EVENTS && c as f64 > threshold)
-            .collect();
+        let mut hot = vec![false; counts.len()];
+        let mut around = Vec::with_capacity(8);
+        for y in 0..h {
+            for x in 0..w {
+                let c = counts[y * w + x];
+                if c < MIN_HOT_PIXEL_EVENTS {
+                    continue;
+                }
+                around.clear();
+                for ny in y.saturating_sub(1)..=(y + 1).min(h - 1) {
+                    for nx in x.saturating_sub(1)..=(x + 1).min(w - 1) {
+                        if (nx, ny) != (x, y) {
+                            around.push(counts[ny * w + nx]);
+                        }
+                    }
+                }
+                hot[y * w + x] = c as f64 > factor * median(&mut around);
+            }
+        }
         HotPixelFilter {
             hot: PixelMap {
                 width: self.counts.width,
@@ -84,6 +95,17 @@ impl HotPixelLearner {
                 values: hot,
             },
         }
+    }
+}
+
+/// The median of `values` (the mean of the middle two of an even count; 0 for none).
+fn median(values: &mut [u32]) -> f64 {
+    values.sort_unstable();
+    let n = values.len();
+    match n {
+        0 => 0.0,
+        _ if n % 2 == 1 => values[n / 2] as f64,
+        _ => (values[n / 2 - 1] as f64 + values[n / 2] as f64) / 2.0,
     }
 }
 

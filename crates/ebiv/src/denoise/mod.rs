@@ -6,7 +6,7 @@
 //! with the recording), run in this order:
 //!
 //! 1. [`HotPixelFilter`]: removes every event of the pixels whose event rate in a leading
-//!    learning interval of the recording is far above the typical pixel rate.
+//!    learning interval of the recording is far above that of their neighbours.
 //! 2. [`RefractoryFilter`]: removes an event of a pixel less than Δt_ref after that pixel's
 //!    previous kept event.
 //! 3. [`CorrelationFilter`]: the background-activity filter of Delbrück (2008): keeps an
@@ -123,7 +123,7 @@ pub struct DenoiseSettings {
     /// removed, µs.
     pub refractory_us: i64,
     /// Hot-pixel filter: a pixel is hot when its count in the learning interval exceeds
-    /// this many times the mean count of the pixels with any event.
+    /// this many times the median count of its 8 neighbours.
     pub hot_pixel_factor: f64,
     /// Hot-pixel filter: the leading interval of the recording, from its first event, µs,
     /// whose counts decide which pixels are hot.
@@ -164,7 +164,7 @@ impl DenoiseSettings {
         let mut parts = Vec::new();
         if self.filters.hot_pixels {
             parts.push(format!(
-                "hot-pixels (above {}× the mean rate over the first {})",
+                "hot-pixels (above {}× the neighbours' median count over the first {})",
                 self.hot_pixel_factor,
                 d(self.hot_pixel_learn_us)
             ));

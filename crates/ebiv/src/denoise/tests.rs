@@ -124,33 +124,42 @@ fn refractory_removes_events_within_the_period_of_the_last_kept_one() {
     assert_eq!(out, vec![(1000, 1, 2)]);
 }
 
-#[test]
-fn hot_pixels_are_learnt_from_the_leading_interval_by_the_rate_criterion() {
-    let g = Geometry::new(8, 8);
+/// Events in `0..learn` with `counts[y][x]` events at each pixel, in time order.
+fn from_counts(counts: &[[u32; 12]; 12], learn: i64) -> Vec<(i64, u16, u16)> {
     let mut list = Vec::new();
-    // 20 ordinary pixels with 2 events each, one pixel with 60 events, one with 12 (above
-    // 5 × mean? mean = (40 + 60 + 12) / 22 = 5.09, threshold 25.5: no), all in 0..10 ms.
-    for k in 0..20u16 {
-        list.push((k as i64 * 100, k % 8, k / 8));
-        list.push((k as i64 * 100 + 50, k % 8, k / 8));
-    }
-    for k in 0..60 {
-        list.push((k * 150, 7, 7));
-    }
-    for k in 0..12 {
-        list.push((k * 700, 6, 7));
+    for (y, row) in counts.iter().enumerate() {
+        for (x, &n) in row.iter().enumerate() {
+            for k in 0..n as i64 {
+                list.push((k * learn / n as i64, x as u16, y as u16));
+            }
+        }
     }
     list.sort();
-    // Events after the learning interval do not count: pixel (5,7) fires 100 times later.
-    let mut late = Vec::new();
-    for k in 0..100 {
-        late.push((10_000 + k, 5, 7));
+    list
+}
+
+#[test]
+fn hot_pixels_are_learnt_from_the_leading_interval_against_their_neighbours() {
+    let g = Geometry::new(12, 12);
+    let mut counts = [[2u32; 12]; 12];
+    counts[11][11] = 60; // a corner: 3 neighbours, median 2
+    counts[4][4] = 50; // two hot neighbours: the median of 8 ignores the other
+    counts[4][5] = 50;
+    counts[1][1] = 10; // exactly 5 × the median 2: not above it
+    counts[1][8] = 11; // just above
+    counts[8][1] = 9; // above 5 × 2 but fewer than MIN_HOT_PIXEL_EVENTS
+    for row in counts.iter_mut().skip(6).take(3) {
+        // A busy trail across the sensor, as particles moving along x leave.
+        row.iter_mut().for_each(|c| *c = 40);
     }
+    let list = from_counts(&counts, 10_000);
+    // Events after the learning interval do not count: pixel (0,11) fires 100 times later.
+    let late: Vec<(i64, u16, u16)> = (0..100).map(|k| (10_000 + k, 0, 11)).collect();
     let mut learner = HotPixelLearner::new(g, 10_000);
     assert!(learner.add(&events(&list)));
     assert!(!learner.add(&events(&late)));
     let hot = learner.finish(5.0);
-    assert_eq!(hot.pixels(), vec![(7, 7)]);
+    assert_eq!(hot.pixels(), vec![(8, 1), (4, 4), (5, 4), (11, 11)]);
     let mut d = Denoiser::new(
         &settings(DenoiseFilters {
             hot_pixels: true,
@@ -162,18 +171,17 @@ fn hot_pixels_are_learnt_from_the_leading_interval_by_the_rate_criterion() {
     .unwrap();
     let mut b = events(&list);
     d.apply(&mut b);
-    assert_eq!(b.len(), list.len() - 60);
-    assert!(b.iter().all(|e| (e.x, e.y) != (7, 7)));
-    assert_eq!(d.report().removed_hot_pixels, Some(60));
-    assert_eq!(d.report().hot_pixels, Some(1));
+    assert_eq!(b.len(), list.len() - 11 - 50 - 50 - 60);
+    assert!(b.iter().all(|e| (e.x, e.y) != (11, 11)));
+    assert_eq!(d.report().removed_hot_pixels, Some(171));
+    assert_eq!(d.report().hot_pixels, Some(4));
 }
 
 #[test]
 fn a_hot_pixel_needs_a_minimum_count_and_the_learner_handles_nothing() {
     let g = Geometry::new(8, 8);
-    // One pixel with 9 events and one with 1: far above the mean ratio-wise, but too few.
-    let mut list: Vec<(i64, u16, u16)> = (0..9).map(|k| (k, 0, 0)).collect();
-    list.push((20, 1, 1));
+    // One pixel with 9 events among silent ones: far above its neighbours, but too few.
+    let list: Vec<(i64, u16, u16)> = (0..9).map(|k| (k, 0, 0)).collect();
     let mut learner = HotPixelLearner::new(g, 1000);
     learner.add(&events(&list));
     assert_eq!(learner.finish(1.5).count(), 0);

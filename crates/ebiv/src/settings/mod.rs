@@ -136,11 +136,11 @@ settings! {
         denoise_dt: Duration = Duration::ms(1); "DUR", check positive_duration;
         /// Refractory filter: events of a pixel less than this long after its previous kept
         /// event are removed.
-        denoise_refractory: Duration = Duration(100); "DUR", check positive_duration;
+        denoise_refractory: Duration = Duration(10); "DUR", check positive_duration;
         /// Hot-pixel filter: a pixel is hot when its event count over the learning interval
-        /// is more than this many times the mean count of the pixels with events (and at
-        /// least 10).
-        denoise_hot_factor: f64 = 10.0; "FACTOR", check above_one;
+        /// is more than this many times the median count of its 8 neighbours (and at least
+        /// 10).
+        denoise_hot_factor: f64 = 5.0; "FACTOR", check above_one;
         /// Hot-pixel filter: the learning interval, from the first event of the recording
         /// (the whole recording when it is shorter).
         denoise_hot_learn: Duration = Duration::ms(1000); "DUR", check positive_duration;
