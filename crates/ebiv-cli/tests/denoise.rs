@@ -7,7 +7,10 @@ use common::{ebiv, simulated_uniform, stderr};
 /// `(removed, reaching)` of the line `denoise: NAME: removed R of N events`, and the kept
 /// count of `denoising kept K of N events`.
 fn counts(err: &str, name: &str) -> ((u64, u64), u64) {
-    let number = |s: &str| s.parse::<u64>().unwrap_or_else(|_| panic!("`{s}` in {err}"));
+    let number = |s: &str| {
+        s.parse::<u64>()
+            .unwrap_or_else(|_| panic!("`{s}` in {err}"))
+    };
     let line = err
         .lines()
         .find(|l| l.starts_with(&format!("denoise: {name}: removed ")))
@@ -46,7 +49,10 @@ fn filter_writes_the_kept_events_and_counts_each_filter() {
     assert_eq!(kept, reaching - refr - corr, "{err}");
     assert!(corr > 0 && kept > reaching / 2, "{err}");
     let text = std::fs::read_to_string(&out).unwrap();
-    let events = text.lines().filter(|l| l.starts_with(|c: char| c.is_ascii_digit())).count();
+    let events = text
+        .lines()
+        .filter(|l| l.starts_with(|c: char| c.is_ascii_digit()))
+        .count();
     assert_eq!(events as u64, kept);
     assert!(err.contains(&format!("wrote {kept} events")), "{err}");
 
@@ -68,7 +74,14 @@ fn filter_writes_the_kept_events_and_counts_each_filter() {
 
     // render and process print their counts too.
     let png = dir.path().join("r.png");
-    let o = ebiv(&["render", &rec, "-o", png.to_str().unwrap(), "--denoise", "correlation"]);
+    let o = ebiv(&[
+        "render",
+        &rec,
+        "-o",
+        png.to_str().unwrap(),
+        "--denoise",
+        "correlation",
+    ]);
     assert!(o.status.success(), "{}", stderr(&o));
     counts(&stderr(&o), "correlation");
     let nc = dir.path().join("f.csv");
@@ -101,11 +114,33 @@ fn filter_needs_a_filter_and_bad_values_name_the_setting() {
     assert!(stderr(&o).contains("--denoise"), "{}", stderr(&o));
     let o = ebiv(&["filter", rec, "-o", out, "--denoise", "median"]);
     assert!(!o.status.success());
-    assert!(stderr(&o).contains("`median` is not a denoising filter"), "{}", stderr(&o));
-    let o = ebiv(&["filter", rec, "-o", out, "--denoise", "correlation", "--denoise-dt", "0us"]);
+    assert!(
+        stderr(&o).contains("`median` is not a denoising filter"),
+        "{}",
+        stderr(&o)
+    );
+    let o = ebiv(&[
+        "filter",
+        rec,
+        "-o",
+        out,
+        "--denoise",
+        "correlation",
+        "--denoise-dt",
+        "0us",
+    ]);
     assert!(!o.status.success());
     assert!(stderr(&o).contains("denoise-dt"), "{}", stderr(&o));
-    let o = ebiv(&["filter", rec, "-o", out, "--denoise", "hot-pixels", "--denoise-hot-factor", "1"]);
+    let o = ebiv(&[
+        "filter",
+        rec,
+        "-o",
+        out,
+        "--denoise",
+        "hot-pixels",
+        "--denoise-hot-factor",
+        "1",
+    ]);
     assert!(!o.status.success());
     assert!(stderr(&o).contains("denoise-hot-factor"), "{}", stderr(&o));
     // Two isolated events: the correlation filter keeps (2,2), supported by (1,1) 5 µs before,
@@ -113,6 +148,13 @@ fn filter_needs_a_filter_and_bad_values_name_the_setting() {
     let o = ebiv(&["filter", rec, "-o", out, "--denoise", "correlation"]);
     assert!(o.status.success(), "{}", stderr(&o));
     let text = std::fs::read_to_string(out).unwrap();
-    assert!(text.contains("5,2,2,1") && !text.contains("0,1,1,1"), "{text}");
-    assert!(stderr(&o).contains("correlation: removed 1 of 2 events"), "{}", stderr(&o));
+    assert!(
+        text.contains("5,2,2,1") && !text.contains("0,1,1,1"),
+        "{text}"
+    );
+    assert!(
+        stderr(&o).contains("correlation: removed 1 of 2 events"),
+        "{}",
+        stderr(&o)
+    );
 }

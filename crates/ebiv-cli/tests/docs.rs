@@ -16,7 +16,11 @@ const PAGES: [(&[&str], &str, Option<&str>); 15] = [
     (&["frames"], "commands.md", Some("## `ebiv frames")),
     (&["demo"], "commands.md", Some("## `ebiv demo")),
     (&["init"], "commands.md", Some("## `ebiv init")),
-    (&["filter"], "denoise.md", Some("## Options of `ebiv filter`")),
+    (
+        &["filter"],
+        "denoise.md",
+        Some("## Options of `ebiv filter`"),
+    ),
     (&["process"], "process.md", None),
     (&["simulate"], "simulate.md", None),
     (&["stats"], "statistics.md", Some("## Options")),

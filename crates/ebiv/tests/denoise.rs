@@ -7,9 +7,7 @@
 //! `cargo test --release -p ebiv --test denoise -- --ignored --nocapture`.
 
 use ebiv::assess::{assess, AssessOptions};
-use ebiv::denoise::{
-    DenoiseFilters, DenoiseReport, DenoiseSettings, Denoiser, HotPixelLearner,
-};
+use ebiv::denoise::{DenoiseFilters, DenoiseReport, DenoiseSettings, Denoiser, HotPixelLearner};
 use ebiv::io::EventSource;
 use ebiv::settings::ProcessSettings;
 use ebiv::sim::scenario::Scenario;
@@ -83,7 +81,11 @@ fn labelled(width: u32, height: u32, duration: &str, density: f64, hot: (f64, f6
         })
         .collect();
     let signal_count = signal.iter().filter(|s| **s).count();
-    assert_eq!(signal_count, quiet.len(), "the quiet events are the noisy one's signal");
+    assert_eq!(
+        signal_count,
+        quiet.len(),
+        "the quiet events are the noisy one's signal"
+    );
     Labelled {
         events,
         signal,
@@ -95,7 +97,8 @@ fn labelled(width: u32, height: u32, duration: &str, density: f64, hot: (f64, f6
 /// Settings with every default of `ProcessSettings`, filters `filters`.
 fn settings(filters: &str) -> DenoiseSettings {
     let mut s = ProcessSettings::default();
-    s.set("denoise", &toml::Value::String(filters.into())).unwrap();
+    s.set("denoise", &toml::Value::String(filters.into()))
+        .unwrap();
     s.denoise_settings().unwrap()
 }
 
@@ -139,8 +142,14 @@ fn denoising_a_noisy_simulation_removes_most_noise_and_keeps_most_signal() {
     assert!(noise > 0.4, "hot pixels removed {noise:.3} of the noise");
     assert!(lost < 0.03, "hot pixels lost {lost:.4} of the signal");
     let (noise_all, lost_all, report) = score(&rec, &settings("all"));
-    assert!(noise_all > 0.94, "all filters removed {noise_all:.3} of the noise");
-    assert!(lost_all < 0.05, "all filters lost {lost_all:.4} of the signal");
+    assert!(
+        noise_all > 0.94,
+        "all filters removed {noise_all:.3} of the noise"
+    );
+    assert!(
+        lost_all < 0.05,
+        "all filters lost {lost_all:.4} of the signal"
+    );
     assert_eq!(report.events_in, rec.events.len() as u64);
     assert_eq!(
         report.removed(),
@@ -191,8 +200,10 @@ fn a_denoised_source_reads_what_the_filters_keep_and_seeks_exactly() {
 fn measure(rec: &Labelled, events: &EventBuffer, method: &str, denoise: &str) -> (f64, f64, f64) {
     let mut s = ProcessSettings::default();
     s.set("input", &toml::Value::String("sim".into())).unwrap();
-    s.set("method", &toml::Value::String(method.into())).unwrap();
-    s.set("denoise", &toml::Value::String(denoise.into())).unwrap();
+    s.set("method", &toml::Value::String(method.into()))
+        .unwrap();
+    s.set("denoise", &toml::Value::String(denoise.into()))
+        .unwrap();
     let run = s.resolve().unwrap();
     let source = EventSource::memory(Arc::new(events.clone()), Some(rec.geometry), "sim");
     let m = run.measure(&source, &mut ()).unwrap();
@@ -206,7 +217,10 @@ fn measure(rec: &Labelled, events: &EventBuffer, method: &str, denoise: &str) ->
 #[ignore = "prints the table of docs/denoise.md; run with --release --ignored --nocapture"]
 fn denoise_table() {
     for density in [0.005, 0.0005] {
-        table(&labelled(640, 480, "40ms", density, (0.001, 2000.0)), density);
+        table(
+            &labelled(640, 480, "40ms", density, (0.001, 2000.0)),
+            density,
+        );
     }
 }
 

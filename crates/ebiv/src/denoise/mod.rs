@@ -137,7 +137,10 @@ impl DenoiseSettings {
             if v > 0 {
                 Ok(())
             } else {
-                Err(Error::parameter(name, format!("{v} µs: must be longer than 0")))
+                Err(Error::parameter(
+                    name,
+                    format!("{v} µs: must be longer than 0"),
+                ))
             }
         };
         if self.filters.correlation {

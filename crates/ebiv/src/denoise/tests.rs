@@ -70,9 +70,21 @@ fn correlation_ignores_the_pixel_itself_and_remembers_removed_events() {
     let out = kept(CORRELATION, g, &[(0, 3, 3), (10, 4, 4), (20, 6, 4)]);
     assert_eq!(out, vec![(10, 4, 4)]);
     // Every one of the 8 neighbours supports, nothing further away does.
-    for (dx, dy) in [(-1, -1), (0, -1), (1, -1), (-1, 0), (1, 0), (-1, 1), (0, 1), (1, 1)] {
+    for (dx, dy) in [
+        (-1, -1),
+        (0, -1),
+        (1, -1),
+        (-1, 0),
+        (1, 0),
+        (-1, 1),
+        (0, 1),
+        (1, 1),
+    ] {
         let (x, y) = ((5 + dx) as u16, (5 + dy) as u16);
-        assert_eq!(kept(CORRELATION, g, &[(0, x, y), (5, 5, 5)]), vec![(5, 5, 5)]);
+        assert_eq!(
+            kept(CORRELATION, g, &[(0, x, y), (5, 5, 5)]),
+            vec![(5, 5, 5)]
+        );
     }
     for (x, y) in [(3, 5), (7, 5), (5, 3), (5, 7), (3, 3)] {
         assert!(kept(CORRELATION, g, &[(0, x, y), (5, 5, 5)]).is_empty());
@@ -87,7 +99,14 @@ fn correlation_on_the_sensor_edge_and_corners() {
     let out = kept(
         CORRELATION,
         g,
-        &[(0, 1, 1), (5, 0, 0), (10, 2, 1), (15, 3, 2), (20, 3, 0), (25, 0, 1)],
+        &[
+            (0, 1, 1),
+            (5, 0, 0),
+            (10, 2, 1),
+            (15, 3, 2),
+            (20, 3, 0),
+            (25, 0, 1),
+        ],
     );
     assert_eq!(
         out,
@@ -109,12 +128,22 @@ fn refractory_removes_events_within_the_period_of_the_last_kept_one() {
     let out = kept(
         REFRACTORY,
         g,
-        &[(0, 1, 1), (499, 1, 1), (500, 1, 1), (700, 1, 1), (1000, 1, 1)],
+        &[
+            (0, 1, 1),
+            (499, 1, 1),
+            (500, 1, 1),
+            (700, 1, 1),
+            (1000, 1, 1),
+        ],
     );
     assert_eq!(out, vec![(0, 1, 1), (500, 1, 1), (1000, 1, 1)]);
     // The period counts from the last *kept* event: 0 kept, 300 and 600 removed? 600 is 600
     // after 0, kept; 900 removed (300 after 600).
-    let out = kept(REFRACTORY, g, &[(0, 2, 2), (300, 2, 2), (600, 2, 2), (900, 2, 2)]);
+    let out = kept(
+        REFRACTORY,
+        g,
+        &[(0, 2, 2), (300, 2, 2), (600, 2, 2), (900, 2, 2)],
+    );
     assert_eq!(out, vec![(0, 2, 2), (600, 2, 2)]);
     // Pixels are independent, corners included; polarity plays no part.
     let out = kept(REFRACTORY, g, &[(0, 0, 0), (1, 3, 3), (2, 0, 3), (3, 3, 0)]);
@@ -192,9 +221,18 @@ fn a_hot_pixel_needs_a_minimum_count_and_the_learner_handles_nothing() {
 #[test]
 fn empty_input_and_counts() {
     let g = Geometry::new(4, 4);
-    let mut d = Denoiser::new(&settings(DenoiseFilters::ALL), g, Some(HotPixelFilter::from_pixels(g, &[]))).unwrap();
+    let mut d = Denoiser::new(
+        &settings(DenoiseFilters::ALL),
+        g,
+        Some(HotPixelFilter::from_pixels(g, &[])),
+    )
+    .unwrap();
     let mut b = EventBuffer::new();
-    b.triggers.push(crate::event::Trigger { t: 5, channel: 0, value: 1 });
+    b.triggers.push(crate::event::Trigger {
+        t: 5,
+        channel: 0,
+        value: 1,
+    });
     d.apply(&mut b);
     assert!(b.is_empty());
     assert_eq!(b.triggers.len(), 1, "triggers pass");
@@ -240,7 +278,12 @@ fn batches_split_anywhere_give_the_result_of_one_batch() {
     assert!(one.len() < all.len() && !one.is_empty());
     let r = whole.report();
     assert!(r.removed_correlation.unwrap() > 0 && r.removed_refractory.unwrap() > 0);
-    for cuts in [vec![1], vec![0, 7, 7, 1000], vec![2500, 2501, 4000], (1..all.len()).step_by(97).collect()] {
+    for cuts in [
+        vec![1],
+        vec![0, 7, 7, 1000],
+        vec![2500, 2501, 4000],
+        (1..all.len()).step_by(97).collect(),
+    ] {
         let mut d = Denoiser::new(&s, g, Some(learn())).unwrap();
         let mut out = EventBuffer::new();
         let mut start = 0;
@@ -272,14 +315,23 @@ fn settings_are_checked_and_named() {
     );
     assert_eq!(DenoiseFilters::parse("all").unwrap(), DenoiseFilters::ALL);
     assert!(!DenoiseFilters::parse("none").unwrap().any());
-    assert!(DenoiseFilters::parse("median").unwrap_err().contains("median"));
-    assert_eq!(DenoiseFilters::ALL.text(), "hot-pixels,refractory,correlation");
+    assert!(DenoiseFilters::parse("median")
+        .unwrap_err()
+        .contains("median"));
+    assert_eq!(
+        DenoiseFilters::ALL.text(),
+        "hot-pixels,refractory,correlation"
+    );
     let mut s = settings(DenoiseFilters::ALL);
     s.correlation_dt_us = 0;
     assert!(s.check().unwrap_err().to_string().contains("denoise-dt"));
     let mut s = settings(DenoiseFilters::ALL);
     s.hot_pixel_factor = 1.0;
-    assert!(s.check().unwrap_err().to_string().contains("denoise-hot-factor"));
+    assert!(s
+        .check()
+        .unwrap_err()
+        .to_string()
+        .contains("denoise-hot-factor"));
     let huge = Geometry::new(65536, 65536);
     assert!(Denoiser::new(&settings(CORRELATION), huge, None).is_err());
     assert!(Denoiser::new(&settings(DenoiseFilters::ALL), Geometry::new(4, 4), None).is_err());

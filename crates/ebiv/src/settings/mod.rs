@@ -23,9 +23,9 @@ pub use run::{describe_piv, Measurement, RunObserver, RunPlan};
 pub use table::{find, template, Setting};
 pub use value::{Duration, Kind, PixelList, Point, SettingValue, SlabLength, TextList};
 
+use crate::denoise::{DenoiseFilters, DenoiseSettings};
 use crate::estimate::corrsum::{CorrKernel, Weighting};
 use crate::estimate::motion::{Objective, SearchMethod};
-use crate::denoise::{DenoiseFilters, DenoiseSettings};
 use crate::event::PolaritySelection;
 use crate::filter::Roi;
 use crate::frame::events::FrameKind;
