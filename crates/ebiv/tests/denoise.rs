@@ -7,7 +7,7 @@
 //! `cargo test --release -p ebiv --test denoise -- --ignored --nocapture`.
 
 use ebiv::assess::{assess, AssessOptions};
-use ebiv::denoise::{DenoiseFilters, DenoiseReport, DenoiseSettings, Denoiser, HotPixelLearner};
+use ebiv::denoise::{DenoiseReport, DenoiseSettings, Denoiser, HotPixelLearner};
 use ebiv::io::EventSource;
 use ebiv::settings::ProcessSettings;
 use ebiv::sim::scenario::Scenario;
