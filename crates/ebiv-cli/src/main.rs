@@ -39,6 +39,9 @@ enum Command {
     Index(cmd::index::IndexArgs),
     /// Convert a recording to EVT 3.0 RAW, CSV, NPY or NPZ, optionally cut and cropped.
     Convert(cmd::convert::ConvertArgs),
+    /// Write a recording without its noise events (hot pixels, refractory, background
+    /// activity), counting what each filter removed.
+    Filter(cmd::denoise::FilterArgs),
     /// Draw a time-coded event image or an event-rate map as PNG.
     Render(cmd::render::RenderArgs),
     /// Rebuild image frames from events (for PIV or inspection), optionally one per light pulse.
@@ -96,6 +99,7 @@ fn main() -> ExitCode {
         Command::Info(a) => cmd::info::run(a),
         Command::Index(a) => cmd::index::run(a),
         Command::Convert(a) => cmd::convert::run(a),
+        Command::Filter(a) => cmd::denoise::run(a),
         Command::Render(a) => cmd::render::run(a),
         Command::Frames(a) => cmd::frames::run(a),
         Command::Process(a) => cmd::process::run(a),

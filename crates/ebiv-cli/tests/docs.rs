@@ -8,7 +8,7 @@ use std::path::PathBuf;
 
 /// Where commands are described: the commands, the page, and the heading that opens their
 /// section (the section runs to the next heading of the same level), or the whole page.
-const PAGES: [(&[&str], &str, Option<&str>); 15] = [
+const PAGES: [(&[&str], &str, Option<&str>); 16] = [
     (&["info"], "commands.md", Some("## `ebiv info")),
     (&["index"], "commands.md", Some("## `ebiv index")),
     (&["convert"], "commands.md", Some("## `ebiv convert")),
@@ -16,6 +16,11 @@ const PAGES: [(&[&str], &str, Option<&str>); 15] = [
     (&["frames"], "commands.md", Some("## `ebiv frames")),
     (&["demo"], "commands.md", Some("## `ebiv demo")),
     (&["init"], "commands.md", Some("## `ebiv init")),
+    (
+        &["filter"],
+        "denoise.md",
+        Some("## Options of `ebiv filter`"),
+    ),
     (&["process"], "process.md", None),
     (&["simulate"], "simulate.md", None),
     (&["stats"], "statistics.md", Some("## Options")),

@@ -10,6 +10,7 @@
 //! of the package (`python/ebiv`) turns datasets into `xarray.Dataset`s and adds `ebiv.dask`.
 
 mod convert;
+mod denoise;
 mod errors;
 mod live;
 mod measure;
@@ -35,6 +36,7 @@ fn _ebiv(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(recording::index, m)?)?;
     m.add_function(wrap_pyfunction!(recording::py_duration_us, m)?)?;
     m.add_function(wrap_pyfunction!(measure::process, m)?)?;
+    m.add_function(wrap_pyfunction!(denoise::filter, m)?)?;
     m.add_function(wrap_pyfunction!(measure::plan, m)?)?;
     m.add_function(wrap_pyfunction!(measure::piv, m)?)?;
     m.add_function(wrap_pyfunction!(measure::simulate, m)?)?;

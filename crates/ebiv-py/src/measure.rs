@@ -188,6 +188,7 @@ pub fn process<'py>(
             events: Arc::new(events),
             geometry: options.geometry,
             name: "arrays".into(),
+            denoise: None,
         },
     };
     let measured = watched(py, progress.as_ref(), |watch| {

@@ -150,6 +150,7 @@ pub fn track<'py>(
                 events: Arc::new(events),
                 geometry: options.geometry,
                 name: "arrays".into(),
+                denoise: None,
             };
             (source, "arrays".to_string(), None)
         }

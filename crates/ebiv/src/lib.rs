@@ -17,6 +17,7 @@
 pub mod activity;
 pub mod assess;
 pub mod deform;
+pub mod denoise;
 pub mod derived;
 pub mod error;
 pub mod estimate;

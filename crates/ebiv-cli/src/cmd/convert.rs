@@ -1,5 +1,6 @@
 //! `ebiv convert`: rewrite a recording in another format, optionally cut and cropped.
 
+use super::process::flags::DenoiseFlags;
 use crate::input::InputArgs;
 use clap::Args;
 use ebiv::filter::{EventFilter, Roi};
@@ -33,10 +34,12 @@ pub struct ConvertArgs {
     #[arg(long, value_name = "ENC", default_value = "evt3", value_parser = parse_raw_encoding)]
     pub output_encoding: RawEncoding,
     #[command(flatten)]
+    pub denoise: DenoiseFlags,
+    #[command(flatten)]
     pub input_args: InputArgs,
 }
 
-fn parse_raw_encoding(s: &str) -> Result<RawEncoding, String> {
+pub fn parse_raw_encoding(s: &str) -> Result<RawEncoding, String> {
     RawEncoding::parse(s).ok_or_else(|| format!("`{s}` is not evt2, evt21 or evt3"))
 }
 
@@ -54,25 +57,54 @@ pub fn parse_polarity(s: &str) -> Result<PolaritySelection, String> {
 const STOP_MARGIN_US: i64 = 1_000_000;
 
 pub fn run(args: &ConvertArgs) -> Result<(), ebiv::Error> {
-    let options = args.input_args.read_options()?;
-    let out_format = match write::format_for_path(&args.output)? {
+    let mut options = args.input_args.read_options()?;
+    options.denoise = args.denoise.settings()?;
+    rewrite(&Rewrite {
+        input: &args.input,
+        output: &args.output,
+        options: &options,
+        time_range: args.time_range.unwrap_or((None, None)),
+        absolute_time: args.absolute_time,
+        roi: args.roi,
+        polarity: args.polarity,
+        output_encoding: args.output_encoding,
+    })
+}
+
+/// A recording rewritten: `ebiv convert`, and `ebiv filter` (denoising, nothing selected).
+pub struct Rewrite<'a> {
+    pub input: &'a std::path::Path,
+    pub output: &'a std::path::Path,
+    /// How to read the input, denoising included.
+    pub options: &'a ebiv::io::ReadOptions,
+    pub time_range: (Option<i64>, Option<i64>),
+    pub absolute_time: bool,
+    pub roi: Option<Roi>,
+    pub polarity: PolaritySelection,
+    pub output_encoding: RawEncoding,
+}
+
+/// Read, denoise, select and write; print what was written and removed.
+pub fn rewrite(args: &Rewrite) -> Result<(), ebiv::Error> {
+    let options = args.options;
+    let out_format = match write::format_for_path(args.output)? {
         Format::Evt3 => args.output_encoding.format(),
         other => other,
     };
-    super::check_output_path(&args.output)?;
+    super::check_output_path(args.output)?;
     let origin = if args.absolute_time {
         0
     } else {
-        ebiv::process::first_event_time(&args.input, &options)?.unwrap_or(0)
+        ebiv::process::first_event_time(args.input, options)?.unwrap_or(0)
     };
-    let (start, end) = args.time_range.unwrap_or((None, None));
+    let (start, end) = args.time_range;
     let filter = EventFilter {
         t_start: start.map(|s| s + origin),
         t_end: end.map(|e| e + origin),
         roi: args.roi,
         polarity: args.polarity,
     };
-    let mut reader = ebiv::io::open(&args.input, &options)?;
+    let mut reader = ebiv::io::open(args.input, options)?;
     let mut geometry = reader.metadata().geometry;
     if let Some(roi) = args.roi {
         if let Some(g) = geometry {
@@ -87,14 +119,14 @@ pub fn run(args: &ConvertArgs) -> Result<(), ebiv::Error> {
     // guard is declared before the writer, so that it is still in place while the writer
     // removes its file, and lives until the file is complete.
     let catch = crate::interrupt::catch();
-    let mut writer = write::create(&args.output, out_format, geometry)?;
-    let total = std::fs::metadata(&args.input).ok().map(|m| m.len());
+    let mut writer = write::create(args.output, out_format, geometry)?;
+    let total = std::fs::metadata(args.input).ok().map(|m| m.len());
     let bar =
         crate::progress::bytes_bar(total.filter(|_| reader.position().is_some()), "converting");
     let mut batch = ebiv::EventBuffer::new();
     let mut written = 0u64;
     while reader.read_batch(&mut batch)? {
-        crate::interrupt::check(&args.output)?;
+        crate::interrupt::check(args.output)?;
         let past_end = filter
             .t_end
             .is_some_and(|e| batch.t.iter().all(|&t| t >= e + STOP_MARGIN_US) && !batch.is_empty());
@@ -108,12 +140,16 @@ pub fn run(args: &ConvertArgs) -> Result<(), ebiv::Error> {
             break;
         }
     }
-    crate::interrupt::check(&args.output)?;
+    crate::interrupt::check(args.output)?;
     if written == 0 {
         // (The writer, dropped unfinished, removes its file.)
         return Err(ebiv::Error::empty(
             args.input.display().to_string(),
-            "no event passes the selection (--time-range, --roi, --polarity), so nothing is written; `ebiv info` shows the recording's span, size and polarities",
+            if options.denoise.is_some() {
+                "no event passes the denoising and the selection (--denoise, --time-range, --roi, --polarity), so nothing is written; `ebiv info` shows the recording's span, size and polarities"
+            } else {
+                "no event passes the selection (--time-range, --roi, --polarity), so nothing is written; `ebiv info` shows the recording's span, size and polarities"
+            },
         ));
     }
     writer.finish()?;

@@ -73,6 +73,8 @@ pub struct FramesArgs {
     #[arg(long, value_name = "HZ", requires = "pulsed")]
     pub pulse_hz: Option<f64>,
     #[command(flatten)]
+    pub denoise: super::process::flags::DenoiseFlags,
+    #[command(flatten)]
     pub input: InputArgs,
 }
 
@@ -109,7 +111,8 @@ pub fn run(args: &FramesArgs) -> Result<(), ebiv::Error> {
             ));
         }
     }
-    let options = args.input.read_options()?;
+    let mut options = args.input.read_options()?;
+    options.denoise = args.denoise.settings()?;
     let extent = coverage(
         &args.file,
         &options,

@@ -5,6 +5,7 @@ pub mod assess;
 pub mod bench;
 pub mod convert;
 pub mod demo;
+pub mod denoise;
 pub mod derive;
 pub mod frames;
 pub mod index;
@@ -58,6 +59,14 @@ pub fn print_report_summary(report: &ebiv::io::DecodeReport) {
     }
     for w in report.warnings.iter().take(5) {
         eprintln!("warning: {w}");
+    }
+    print_denoise_report(report.denoise.as_ref());
+}
+
+/// One line per denoising filter: how many events it removed.
+pub fn print_denoise_report(report: Option<&ebiv::denoise::DenoiseReport>) {
+    for line in report.map(|r| r.lines()).unwrap_or_default() {
+        eprintln!("denoise: {line}");
     }
 }
 

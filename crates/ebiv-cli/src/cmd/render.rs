@@ -42,6 +42,8 @@ pub struct RenderArgs {
     #[arg(long, value_name = "N", allow_hyphen_values = true, value_parser = parse_scale)]
     pub scale: Option<u32>,
     #[command(flatten)]
+    pub denoise: super::process::flags::DenoiseFlags,
+    #[command(flatten)]
     pub input: InputArgs,
 }
 
@@ -67,7 +69,8 @@ pub fn run(args: &RenderArgs) -> Result<(), ebiv::Error> {
     // Ctrl-C stops the reading at its next batch; the figure, written through a temporary
     // file once everything is read, is then not written at all.
     let _catch = crate::interrupt::catch();
-    let options = args.input.read_options()?;
+    let mut options = args.input.read_options()?;
+    options.denoise = args.denoise.settings()?;
     let origin = if args.absolute_time {
         0
     } else {
@@ -96,11 +99,12 @@ pub fn run(args: &RenderArgs) -> Result<(), ebiv::Error> {
         time_origin_us: origin,
     };
     if args.rate {
-        let geometry = match ebiv::io::open(&args.file, &options)?.metadata().geometry {
+        let raw = options.without_denoise();
+        let geometry = match ebiv::io::open(&args.file, &raw)?.metadata().geometry {
             Some(g) => g,
             None => {
                 let mut stats = ebiv::stats::RecordingStats::new();
-                super::stream_file(&args.file, &options, |_, b| {
+                super::stream_file(&args.file, &raw, |_, b| {
                     crate::interrupt::check(&args.output)?;
                     stats.add(b);
                     Ok(true)
@@ -111,11 +115,12 @@ pub fn run(args: &RenderArgs) -> Result<(), ebiv::Error> {
         let style = style("event rate");
         style.scale_for(geometry.width, geometry.height)?;
         let mut map = EventRateMap::new(geometry);
-        super::stream_file(&args.file, &options, |_, batch| {
+        let reader = super::stream_file(&args.file, &options, |_, batch| {
             crate::interrupt::check(&args.output)?;
             map.add(batch, start, end, args.polarity);
             Ok(!batch.t.iter().all(|&t| t >= end) || batch.is_empty())
         })?;
+        super::print_denoise_report(reader.denoise_report().as_ref());
         let interval = (!whole_file).then_some((start, end));
         let img = map.render(interval, &style)?;
         if img.active_pixels == 0 {
@@ -201,6 +206,7 @@ fn collect(
             break;
         }
     }
+    super::print_denoise_report(reader.denoise_report().as_ref());
     let geometry = match reader.metadata().geometry {
         Some(g) => g,
         None => data_geometry(

@@ -39,6 +39,7 @@ __all__ = [
     "bin_tracks",
     "derive",
     "examples",
+    "filter",
     "index",
     "live",
     "open",
@@ -364,6 +365,32 @@ def assess(
         mm_per_px,
         frame_interval,
     )
+
+
+def filter(  # noqa: A001 (as ebiv filter)
+    source: Union[PathLike, Events, Tuple[Any, Any, Any, Any], Dict[str, Any]],
+    output: Optional[PathLike] = None,
+    **settings: Any,
+) -> Dict[str, Any]:
+    """Remove noise events, as ``ebiv filter`` does (docs/denoise.md).
+
+    ``source``: a path (or a :class:`Recording`), or events as arrays ``(t, x, y, p)`` (pass
+    ``geometry=(w, h)`` when the largest coordinates are not the sensor's size). Settings:
+    ``denoise`` (``"hot-pixels,refractory,correlation"``, any of them, or ``"all"``;
+    required), ``denoise_dt``, ``denoise_refractory``, ``denoise_hot_factor``,
+    ``denoise_hot_learn``, and reader options. The same settings are keywords of
+    :func:`process` and :func:`live`.
+
+    With ``output``, the kept events are written in the format of its extension (.raw,
+    .aedat4, .csv, .npy, .npz). Returns the counts: ``events_in``, ``events_out``,
+    ``removed_hot_pixels``, ``removed_refractory``, ``removed_correlation`` (``None`` for a
+    filter that did not run), ``hot_pixels``, ``filters``; and without ``output`` the kept
+    events as :class:`Events` under ``events``."""
+    source = _source(source, settings)
+    result = dict(_ebiv.filter(source, output, **settings))
+    if "events" in result:
+        result["events"] = Events(*result["events"])
+    return result
 
 
 def write(field: Any, path: PathLike) -> None:

@@ -137,6 +137,12 @@ def process(
     """Velocity fields of a recording or event arrays with ``ebiv process``'s settings as keywords
     (``shard=True``: fields without events are gaps even when all are)."""
 
+def filter(  # noqa: A001 (as ebiv filter)
+    source: _Source, output: Optional[_StrPath] = None, **settings: Any
+) -> Dict[str, Any]:
+    """Denoise a recording or event arrays (``denoise="all"``, ``denoise_dt="2ms"``, …):
+    counts per filter, and ``events`` (t, x, y, p) when no ``output`` is written."""
+
 def plan(source: _StrPath, method: Optional[str] = None, **settings: Any) -> _Plan:
     """The field times and extent of a ``process`` run over ``source``, without measuring."""
 

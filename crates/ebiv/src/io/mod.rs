@@ -9,6 +9,7 @@ mod aedat31;
 mod aedat4;
 mod bytestream;
 mod dat;
+mod denoise;
 mod detect;
 mod ebiv_evt;
 pub mod ecf;
@@ -67,6 +68,9 @@ pub struct ReadOptions {
     pub text: TextOptions,
     /// Force a format instead of detecting it.
     pub format: Option<Format>,
+    /// Filters that remove noise events as they are read ([`crate::denoise`]); applied by
+    /// [`open`] and [`EventSource::open`], not by the lower-level openers.
+    pub denoise: Option<crate::denoise::DenoiseSettings>,
 }
 
 impl Default for ReadOptions {
@@ -78,6 +82,18 @@ impl Default for ReadOptions {
             batch_bytes: 1 << 20,
             text: TextOptions::default(),
             format: None,
+            denoise: None,
+        }
+    }
+}
+
+impl ReadOptions {
+    /// The same options without denoising: what planning reads (the first event, the span
+    /// and the size of a recording are the recording's, not the filters').
+    pub fn without_denoise(&self) -> ReadOptions {
+        ReadOptions {
+            denoise: None,
+            ..self.clone()
         }
     }
 }
@@ -173,13 +189,18 @@ pub struct ResumePoint {
 }
 
 /// Open the event file at `path` for streaming; seeking uses the recording's index where one
-/// is stored ([`index`]).
+/// is stored ([`index`]). With `options.denoise`, the reader hands out the events its
+/// filters keep ([`EventReader::denoise_report`] counts what they removed).
 pub fn open(path: impl AsRef<Path>, options: &ReadOptions) -> Result<EventReader> {
     let path = path.as_ref();
     let mut reader = open_without_index(path, options)?;
     if reader.inner().resume_point().is_some() {
         let m = reader.metadata();
         reader.index = index::load_index(path, m.format.name(), m.geometry).map(Into::into);
+    }
+    if let Some(settings) = &options.denoise {
+        let raw = options.without_denoise();
+        denoise::attach(&mut reader, settings, || open_without_index(path, &raw))?;
     }
     Ok(reader)
 }

@@ -28,6 +28,8 @@ pub struct EventReader {
     metadata: Metadata,
     /// The recording's index, when one is stored for it ([`super::index`]).
     pub(crate) index: Option<std::sync::Arc<super::index::RecordingIndex>>,
+    /// Filters applied to every decoded batch ([`crate::denoise`]).
+    pub(crate) denoiser: Option<crate::denoise::Denoiser>,
 }
 
 impl EventReader {
@@ -42,6 +44,7 @@ impl EventReader {
             pending: None,
             metadata,
             index: None,
+            denoiser: None,
         }
     }
 
@@ -73,7 +76,16 @@ impl EventReader {
 
     /// What was dropped or skipped so far; complete once the reader is exhausted.
     pub fn report(&self) -> DecodeReport {
-        self.own.merged_with(self.inner.report())
+        let mut report = self.own.merged_with(self.inner.report());
+        report.denoise = self.denoise_report();
+        report
+    }
+
+    /// What the denoising filters removed so far, when the reader denoises: counted over the
+    /// events handed out and removed, not over those a seek ([`EventReader::skip_to`])
+    /// passed.
+    pub fn denoise_report(&self) -> Option<crate::denoise::DenoiseReport> {
+        self.denoiser.as_ref().map(|d| d.report().clone())
     }
 
     /// Bytes of the file consumed so far, where the format's reader tracks it.
@@ -94,6 +106,9 @@ impl EventReader {
                 return Ok(false);
             }
             self.after_decode(out);
+            if let Some(denoiser) = &mut self.denoiser {
+                denoiser.apply(out);
+            }
             if !out.is_empty() || !out.triggers.is_empty() {
                 return Ok(true);
             }
@@ -132,7 +147,14 @@ impl EventReader {
 
     /// Skip to the first event at or after `t_us` (camera time, after any shift): jumps by the
     /// file's index where the format has one, and otherwise decodes and discards quickly.
+    /// A denoising reader never jumps: its filters' state depends on every event before, so
+    /// it decodes from where it is and feeds the skipped events to the filters (leaving
+    /// them out of the counts); what follows is then exactly what reading from the start
+    /// gives.
     pub fn skip_to(&mut self, t_us: i64) -> Result<()> {
+        if self.denoiser.is_some() {
+            return self.skip_denoised(t_us);
+        }
         if self.pending.is_none() && !self.jump_by_index(t_us)? {
             self.inner.seek_near(t_us + self.shift_us)?;
         }
@@ -156,6 +178,42 @@ impl EventReader {
             }
         }
         Ok(())
+    }
+
+    /// [`EventReader::skip_to`] of a denoising reader.
+    fn skip_denoised(&mut self, t_us: i64) -> Result<()> {
+        if let Some(mut pending) = self.pending.take() {
+            // Already filtered and counted.
+            if let Some(first) = pending.t.iter().position(|&t| t >= t_us) {
+                let mut rest = pending.split_off(first);
+                rest.triggers = std::mem::take(&mut pending.triggers);
+                rest.triggers.retain(|tr| tr.t >= t_us);
+                self.pending = Some(rest);
+                return Ok(());
+            }
+        }
+        let mut batch = EventBuffer::new();
+        loop {
+            batch.clear();
+            if !self.inner.next_batch(&mut batch)? {
+                return Ok(());
+            }
+            self.after_decode(&mut batch);
+            let first = batch.t.iter().position(|&t| t >= t_us);
+            let mut rest = batch.split_off(first.unwrap_or(batch.len()));
+            self.own.events -= batch.len() as u64;
+            let denoiser = self.denoiser.as_mut().expect("a denoising reader");
+            let counts = denoiser.report().clone();
+            denoiser.apply(&mut batch);
+            denoiser.set_report(counts);
+            if first.is_some() {
+                denoiser.apply(&mut rest);
+                rest.triggers = std::mem::take(&mut batch.triggers);
+                rest.triggers.retain(|tr| tr.t >= t_us);
+                self.pending = Some(rest);
+                return Ok(());
+            }
+        }
     }
 
     /// Decode everything that is left into memory.

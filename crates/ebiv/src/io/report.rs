@@ -23,6 +23,10 @@ pub struct DecodeReport {
     pub truncated_bytes: u64,
     /// Human-readable warnings, each naming the byte offset or record concerned.
     pub warnings: Vec<String>,
+    /// What the denoising filters removed, when the reader denoises (`events` counts the
+    /// events before them).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub denoise: Option<crate::denoise::DenoiseReport>,
 }
 
 /// At most this many warnings are kept; later ones are only counted.
@@ -66,6 +70,7 @@ impl DecodeReport {
             skipped_other: inner.skipped_other + self.skipped_other,
             truncated_bytes: inner.truncated_bytes + self.truncated_bytes,
             warnings,
+            denoise: self.denoise.clone(),
         }
     }
 }

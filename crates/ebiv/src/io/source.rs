@@ -27,6 +27,8 @@ pub enum EventSource {
         geometry: Option<Geometry>,
         /// What messages and the output's `source` attribute call these events.
         name: String,
+        /// Filters applied as the events are read ([`crate::denoise`]).
+        denoise: Option<crate::denoise::DenoiseSettings>,
     },
 }
 
@@ -39,13 +41,57 @@ impl EventSource {
         }
     }
 
-    /// A new reader at the start of the events.
+    /// Events in memory on a sensor of `geometry`, called `name`, not denoised.
+    pub fn memory(events: Arc<EventBuffer>, geometry: Option<Geometry>, name: &str) -> Self {
+        EventSource::Memory {
+            events,
+            geometry,
+            name: name.to_string(),
+            denoise: None,
+        }
+    }
+
+    /// A new reader at the start of the events, denoised when the source says so.
     pub fn open(&self) -> Result<EventReader> {
         match self {
             EventSource::File { path, options } => super::open(path, options),
             EventSource::Memory {
-                events, geometry, ..
-            } => Ok(super::open_events(events.clone(), *geometry)),
+                events,
+                geometry,
+                denoise,
+                ..
+            } => {
+                let raw = || Ok(super::open_events(events.clone(), *geometry));
+                let mut reader = raw()?;
+                if let Some(settings) = denoise {
+                    super::denoise::attach(&mut reader, settings, raw)?;
+                }
+                Ok(reader)
+            }
+        }
+    }
+
+    /// A new reader at the start of the events, never denoised: for what planning reads
+    /// (the first event, the span and the size of the recording).
+    pub fn open_raw(&self) -> Result<EventReader> {
+        self.denoised(None).open()
+    }
+
+    /// The same source, read through the filters of `denoise` (`None`: not denoised).
+    pub fn denoised(&self, denoise: Option<crate::denoise::DenoiseSettings>) -> Self {
+        let mut source = self.clone();
+        match &mut source {
+            EventSource::File { options, .. } => options.denoise = denoise,
+            EventSource::Memory { denoise: d, .. } => *d = denoise,
+        }
+        source
+    }
+
+    /// The denoising filters the source is read through.
+    pub fn denoise(&self) -> Option<&crate::denoise::DenoiseSettings> {
+        match self {
+            EventSource::File { options, .. } => options.denoise.as_ref(),
+            EventSource::Memory { denoise, .. } => denoise.as_ref(),
         }
     }
 
@@ -59,8 +105,9 @@ impl EventSource {
 
     /// Time stamp of the first event in file order (the origin of every command's relative
     /// times), decoding only as far as that event; `None` without events.
+    /// Not denoised: the origin is the recording's, whatever the filters remove.
     pub fn first_event_time(&self) -> Result<Option<i64>> {
-        let mut reader = self.open()?;
+        let mut reader = self.open_raw()?;
         let mut batch = EventBuffer::new();
         while reader.read_batch(&mut batch)? {
             if let Some(&t) = batch.t.first() {

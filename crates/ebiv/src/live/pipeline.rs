@@ -95,13 +95,19 @@ impl EstimatorTask for LiveTask<'_> {
             (Some(every), None) => every,
             (None, time) => time.map_or(run.slab_us(), |t| t.step),
         };
+        if run.denoise.is_some_and(|d| d.filters.hot_pixels) {
+            return Err(Error::parameter(
+                "denoise",
+                "a live run reads its input once, so it cannot learn the hot pixels from the recording's start; live denoises with refractory and correlation (remove hot pixels with ebiv process or ebiv filter)",
+            ));
+        }
         // The reader also stops when the evaluation fails.
         let failed = Arc::new(AtomicBool::new(false));
         let stop: StopCheck = {
             let (failed, requested) = (failed.clone(), stop.clone());
             Arc::new(move || failed.load(Ordering::Relaxed) || requested())
         };
-        let reader = open_input(&options.input, options, stop.clone())?;
+        let mut reader = open_input(&options.input, options, stop.clone())?;
         let geometry = reader
             .metadata()
             .geometry
@@ -112,6 +118,9 @@ impl EstimatorTask for LiveTask<'_> {
                     format!("{name}: the file does not state its sensor size, which a live run needs before the first field; pass --geometry WIDTHxHEIGHT"),
                 )
             })?;
+        if let Some(d) = &run.denoise {
+            reader.denoiser = Some(crate::denoise::Denoiser::new(d, geometry, None)?);
+        }
         let mut params = run.process.clone();
         params.mask = run.mask_for(geometry)?;
         let grids = params.grids(geometry)?;

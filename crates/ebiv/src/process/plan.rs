@@ -70,7 +70,7 @@ pub fn plan_fields(
     let (start, end) = (time.and_then(|t| t.start), time.and_then(|t| t.end));
     let scanned = header_geometry.is_none() || start.is_none() || end.is_none();
     let extent = if scanned {
-        let mut scan = source.open()?;
+        let mut scan = source.open_raw()?;
         scan_extent(&mut scan)?.ok_or_else(no_events)?
     } else {
         let first_us = if absolute_time {
@@ -170,7 +170,7 @@ pub fn coverage(
     absolute_time: bool,
     polarity: PolaritySelection,
 ) -> Result<Coverage> {
-    let mut reader = crate::io::open(path, options)?;
+    let mut reader = crate::io::open(path, &options.without_denoise())?;
     let geometry = reader.metadata().geometry;
     let geometry_from_events = geometry.is_none();
     let mut batch = EventBuffer::new();

@@ -31,6 +31,15 @@ pub fn positive(v: &impl Each<f64>) -> Check {
     }
 }
 
+pub fn above_one(v: &impl Each<f64>) -> Check {
+    match v.each() {
+        Some(&x) if !(x.is_finite() && x > 1.0) => {
+            Err(format!("must be a number above 1, got {x}"))
+        }
+        _ => Ok(()),
+    }
+}
+
 pub fn non_negative(v: &impl Each<f64>) -> Check {
     match v.each() {
         Some(&x) if !(x.is_finite() && x >= 0.0) => {

@@ -23,6 +23,7 @@ pub use run::{describe_piv, Measurement, RunObserver, RunPlan};
 pub use table::{find, template, Setting};
 pub use value::{Duration, Kind, PixelList, Point, SettingValue, SlabLength, TextList};
 
+use crate::denoise::{DenoiseFilters, DenoiseSettings};
 use crate::derived::DerivedList;
 use crate::estimate::corrsum::{CorrKernel, Weighting};
 use crate::estimate::motion::{Objective, SearchMethod};
@@ -130,6 +131,25 @@ settings! {
         absolute_time: bool = false; "";
         /// Events used: pos, neg or both (pos, as in the EBIV paper).
         polarity: PolaritySelection = PolaritySelection::Positive; "POL";
+    }
+    group "Denoising" {
+        /// Filters that remove noise events as the recording is read, before anything else:
+        /// hot-pixels, refractory, correlation (they run in this order), all, or none
+        /// (docs/denoise.md).
+        denoise: DenoiseFilters = DenoiseFilters::default(); "FILTER[,FILTER..]";
+        /// Correlation filter: an event is kept only if one of its 8 neighbours fired at
+        /// most this long before it (Delbrück 2008).
+        denoise_dt: Duration = Duration::ms(1); "DUR", check positive_duration;
+        /// Refractory filter: events of a pixel less than this long after its previous kept
+        /// event are removed.
+        denoise_refractory: Duration = Duration(10); "DUR", check positive_duration;
+        /// Hot-pixel filter: a pixel is hot when its event count over the learning interval
+        /// is more than this many times the median count of its 8 neighbours (and at least
+        /// 10).
+        denoise_hot_factor: f64 = 5.0; "FACTOR", check above_one;
+        /// Hot-pixel filter: the learning interval, from the first event of the recording
+        /// (the whole recording when it is shorter).
+        denoise_hot_learn: Duration = Duration::ms(1000); "DUR", check positive_duration;
     }
     group "Adaptive slab (slab = auto)" {
         /// Shortest slab: the sensor's latency or longer (an event camera's pixels respond
@@ -287,6 +307,23 @@ settings! {
         /// any case, so that ParaView shows the image as the camera saw it: without y-up
         /// they hold y = -row (mm: -y) and v positive up.
         y_up: bool = false; "";
+    }
+}
+
+/// The heading of the denoising settings: the commands that read recordings without
+/// measuring (`ebiv frames`, `render`, `convert`, `filter`) take these settings alone.
+pub const DENOISE_GROUP: &str = "Denoising";
+
+impl ProcessSettings {
+    /// The denoising filters, `None` when none runs.
+    pub fn denoise_settings(&self) -> Option<DenoiseSettings> {
+        self.denoise.any().then_some(DenoiseSettings {
+            filters: self.denoise,
+            correlation_dt_us: self.denoise_dt.0,
+            refractory_us: self.denoise_refractory.0,
+            hot_pixel_factor: self.denoise_hot_factor,
+            hot_pixel_learn_us: self.denoise_hot_learn.0,
+        })
     }
 }
 

@@ -91,6 +91,8 @@ pub struct Resolved {
     pub mask: Option<PathBuf>,
     /// Quantities derived from the velocity gradient, added to the series.
     pub derive: Vec<DerivedQuantity>,
+    /// The filters the recording is read through, `None` when none runs.
+    pub denoise: Option<crate::denoise::DenoiseSettings>,
 }
 
 impl Resolved {
@@ -109,9 +111,9 @@ impl Resolved {
         }
     }
 
-    /// The recording as a source of events, read with `options`.
+    /// The recording as a source of events, read with `options` and the run's denoising.
     pub fn event_source(&self, options: &ReadOptions) -> EventSource {
-        EventSource::file(self.input_path(), options)
+        EventSource::file(self.input_path(), options).denoised(self.denoise)
     }
 
     /// Open `source` and plan its field times ([`plan_fields`]) for a method whose fields
@@ -305,6 +307,10 @@ impl ProcessSettings {
             polarity: self.polarity,
             splat_sigma: self.splat,
         };
+        let denoise = self.denoise_settings();
+        if let Some(d) = &denoise {
+            d.check()?;
+        }
         let calibration = match self.mm_per_px {
             Some(mm_per_px) => {
                 let calibration = Calibration {
@@ -350,6 +356,7 @@ impl ProcessSettings {
             calibration,
             mask: self.mask.clone(),
             derive: derive.map(|d| d.0.clone()).unwrap_or_default(),
+            denoise,
         })
     }
 

@@ -97,6 +97,8 @@ impl Resolved {
                 "image pairs are measured by PIV of images (`ebiv process --images`, Python's `ebiv.piv`), not as a recording",
             ));
         }
+        // The run's denoising, whatever the source was given with.
+        let source = &source.denoised(self.denoise);
         let (mut series, summary, report, planned, polarity) = match self.method {
             Method::CorrSum | Method::Motion => self.with_event_estimator(EventRun {
                 run: self,
@@ -110,6 +112,9 @@ impl Resolved {
         series.time_origin_us = Some(planned.time_origin_us);
         self.finish_series(&mut series)?;
         series.attributes.push(("source".into(), source.name()));
+        if let Some(d) = &self.denoise {
+            series.attributes.push(("denoise".into(), d.describe()));
+        }
         Ok(Measurement {
             series,
             summary,

@@ -439,6 +439,35 @@ impl SettingValue for Roi {
     }
 }
 
+/// Denoising filters: `hot-pixels,correlation`, `["refractory", "correlation"]`, `all`,
+/// `none`.
+impl SettingValue for crate::denoise::DenoiseFilters {
+    fn from_text(text: &str) -> Result<Self, String> {
+        Self::parse(text)
+    }
+
+    fn from_toml(value: &Value) -> Result<Self, String> {
+        match value {
+            Value::String(s) => Self::parse(s),
+            Value::Array(items) => {
+                let names = items
+                    .iter()
+                    .map(|v| match v {
+                        Value::String(s) => Ok(s.as_str()),
+                        other => Err(format!("`{other}` is not a filter name")),
+                    })
+                    .collect::<Result<Vec<_>, _>>()?;
+                Self::parse_names(names)
+            }
+            other => Err(format!("`{other}` is not a list of denoising filters")),
+        }
+    }
+
+    fn to_toml(&self) -> Option<Value> {
+        Some(Value::String(self.text()))
+    }
+}
+
 /// Named choices: the first name of each variant is the one written back; the type's own
 /// parser may accept more spellings.
 macro_rules! choice {

@@ -107,3 +107,57 @@ impl Args for SettingFlags {
         Self::augment_args(cmd)
     }
 }
+
+/// The denoising flags alone (`--denoise`, `--denoise-dt`, …), for the commands that read a
+/// recording without measuring it: the same settings, help texts and defaults as
+/// `ebiv process`'s ([`ebiv::settings::DENOISE_GROUP`]).
+#[derive(Debug, Clone, Default)]
+pub struct DenoiseFlags(SettingFlags);
+
+fn is_denoise(s: &Setting) -> bool {
+    s.group == ebiv::settings::DENOISE_GROUP
+}
+
+impl DenoiseFlags {
+    /// The filters the flags ask for, checked; `None` when none runs.
+    pub fn settings(&self) -> Result<Option<ebiv::denoise::DenoiseSettings>, ebiv::Error> {
+        let mut settings = ProcessSettings::default();
+        self.0.apply(&mut settings)?;
+        let denoise = settings.denoise_settings();
+        if let Some(d) = &denoise {
+            d.check()?;
+        }
+        Ok(denoise)
+    }
+}
+
+impl FromArgMatches for DenoiseFlags {
+    fn from_arg_matches(m: &ArgMatches) -> Result<Self, clap::Error> {
+        let mut given = Vec::new();
+        for s in settings().iter().filter(|s| is_denoise(s)) {
+            let id = flag_id(s);
+            if let Some(values) = m.get_many::<String>(id) {
+                given.push((id, values.cloned().collect()));
+            }
+        }
+        Ok(DenoiseFlags(SettingFlags { given }))
+    }
+
+    fn update_from_arg_matches(&mut self, m: &ArgMatches) -> Result<(), clap::Error> {
+        *self = Self::from_arg_matches(m)?;
+        Ok(())
+    }
+}
+
+impl Args for DenoiseFlags {
+    fn augment_args(cmd: Command) -> Command {
+        settings()
+            .iter()
+            .filter(|s| is_denoise(s))
+            .fold(cmd, |cmd, s| cmd.arg(argument(s)))
+    }
+
+    fn augment_args_for_update(cmd: Command) -> Command {
+        Self::augment_args(cmd)
+    }
+}
