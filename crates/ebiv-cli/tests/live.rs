@@ -136,3 +136,39 @@ fn an_input_shorter_than_one_field_is_an_error() {
     let o = ebiv(&["live", &rec, "--time", "30ms:10ms:5ms"]);
     assert!(String::from_utf8_lossy(&o.stderr).contains("before START"));
 }
+
+/// Derived quantities in every output format, the NPZ (written at the end) included: the
+/// same values as `process --derive` on the finished recording.
+#[test]
+fn derived_quantities_reach_every_live_output() {
+    let dir = tempfile::tempdir().unwrap();
+    let rec = recording(dir.path());
+    for ext in ["npz", "nc", "csv"] {
+        let out = dir.path().join(format!("live.{ext}"));
+        let o = ebiv(
+            &[
+                &[
+                    "live",
+                    &rec,
+                    "--derive",
+                    "vorticity",
+                    "-o",
+                    out.to_str().unwrap(),
+                ][..],
+                &SETTINGS,
+            ]
+            .concat(),
+        );
+        assert!(
+            o.status.success(),
+            "{ext}: {}",
+            String::from_utf8_lossy(&o.stderr)
+        );
+        let bytes = std::fs::read(&out).unwrap();
+        let needle: &[u8] = b"vorticity";
+        assert!(
+            bytes.windows(needle.len()).any(|w| w == needle),
+            "{ext}: no vorticity in the output"
+        );
+    }
+}

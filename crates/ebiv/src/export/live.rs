@@ -47,7 +47,10 @@ enum Format {
 
 /// The fields of an NPZ output, kept until the run ends.
 struct NpzSeries {
+    /// The fields so far, without derived quantities (a series that holds them takes no
+    /// more fields): they are derived over the whole series at the end.
     series: Option<FieldSeries>,
+    derive: Vec<crate::derived::DerivedQuantity>,
     dropped: Vec<u64>,
 }
 
@@ -102,6 +105,7 @@ impl LiveWriter {
                 "nc" => Format::NetCdf(Box::new(NetCdfAppender::create(&self.path, &one)?)),
                 _ => Format::Npz(Box::new(NpzSeries {
                     series: None,
+                    derive: Vec::new(),
                     dropped: Vec::new(),
                 })),
             };
@@ -122,7 +126,14 @@ impl LiveWriter {
             Format::Npz(npz) => {
                 match &mut npz.series {
                     Some(s) => s.push(t0_us, field)?,
-                    None => npz.series = Some(one),
+                    None => {
+                        let mut one = one;
+                        npz.derive = std::mem::take(&mut one.derived)
+                            .into_iter()
+                            .map(|d| d.quantity)
+                            .collect();
+                        npz.series = Some(one);
+                    }
                 }
                 npz.dropped.push(dropped_before);
                 Ok(())
@@ -138,10 +149,17 @@ impl LiveWriter {
             Format::Csv(mut w) => w.flush().map_err(|e| Error::io(&self.path, e)),
             Format::NetCdf(_) => Ok(()),
             Format::Npz(npz) => {
-                let NpzSeries { series, dropped } = *npz;
+                let NpzSeries {
+                    series,
+                    derive,
+                    dropped,
+                } = *npz;
                 let Some(mut series) = series else {
                     return Ok(());
                 };
+                if !derive.is_empty() {
+                    crate::derived::add_derived(&mut series, &derive)?;
+                }
                 series.attributes.push((
                     DROPPED.into(),
                     dropped

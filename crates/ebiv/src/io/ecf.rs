@@ -274,6 +274,17 @@ fn decode_into(bytes: &[u8], out: &mut impl Sink) -> Result<usize, EcfError> {
             decode_p_runs(&mut c, n, out)?;
         }
     }
+    // A buffer holds exactly its encoded events (the codec's writer stores no more): bytes
+    // left over mean a damaged event count or layout.
+    if c.at != bytes.len() {
+        return fail(
+            c.at,
+            format!(
+                "{} bytes follow the buffer's {n} events",
+                bytes.len() - c.at
+            ),
+        );
+    }
     Ok(n)
 }
 

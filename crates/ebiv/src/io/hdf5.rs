@@ -10,8 +10,9 @@
 //!   the DSEC `t_offset` (µs added to every `t`) and `ms_to_idx` (the first event of every
 //!   millisecond, used to seek).
 //!
-//! Events are read a few chunks at a time, so memory holds a batch, not the recording; the
-//! HDF5 reader's own limits bound what a damaged file can make it allocate.
+//! Events are read a few chunks at a time, so memory holds a batch, not the recording; one
+//! read returns at most [`MAX_READ_BYTES`], so a damaged size field cannot make the reader
+//! allocate without bound.
 //!
 //! Time: ebiv keeps the time stamps as stored (formats.md §14). A Metavision file's
 //! `time_shift` attribute is what the Metavision reader subtracts; `--metavision-time` does
@@ -22,7 +23,7 @@ mod storage;
 use super::npy::{count_outcome, gather, Converter, Kind, Outcome, Scalar, TimeConv};
 use super::prophesee_header::PropheseeHeader;
 use super::raw::metadata_from_header;
-use super::{DecodeReport, Format, FormatReader, Metadata, ReadOptions, ReadSeek};
+use super::{DecodeReport, Format, FormatReader, Metadata, ReadOptions, ReadSeek, TimeUnit};
 use crate::error::{Error, Result};
 use crate::event::{EventBuffer, Trigger};
 use hdf5_reader::{
@@ -37,6 +38,8 @@ use storage::SourceStorage;
 const MAX_RECORD_BYTES: usize = 64;
 /// Most trigger edges read from `/EXT_TRIGGER/events` (they are held in memory).
 const MAX_TRIGGERS: u64 = 50_000_000;
+/// Most bytes one read of a dataset may return (a batch, an index, the triggers).
+const MAX_READ_BYTES: usize = 1 << 30;
 /// Most entries of a seek index read (`/CD/indexes`, `ms_to_idx`).
 const MAX_INDEX_ENTRIES: u64 = 100_000_000;
 
@@ -55,30 +58,45 @@ fn open_reader(
     options: &ReadOptions,
 ) -> Result<Hdf5Reader> {
     let storage = SourceStorage::new(source)?;
-    // The ECF filter pads a chunk's events to the chunk's length (the last chunk of a
-    // dataset holds fewer), which it learns once the dataset is found.
+    // The ECF filter pads a chunk's events to the chunk's length; it learns the chunk length
+    // and the length of the dataset's last, partial chunk once the dataset is found, and
+    // refuses a chunk that declares any other number of events (a damaged count).
     let chunk_rows = Arc::new(AtomicUsize::new(0));
+    let last_rows = Arc::new(AtomicUsize::new(0));
     let mut filters = FilterRegistry::new();
-    let rows = Arc::clone(&chunk_rows);
+    let (rows, last) = (Arc::clone(&chunk_rows), Arc::clone(&last_rows));
     filters.register(
         super::ecf::FILTER_ID,
         Box::new(move |_, data, _| {
-            let rows = Some(rows.load(Ordering::Relaxed)).filter(|&r| r > 0);
-            super::ecf::decode_records(data, rows)
-                .map_err(|e| hdf5_reader::error::Error::FilterError(format!("ECF: {e}")))
+            let filter_error = hdf5_reader::error::Error::FilterError;
+            let (rows, last) = (rows.load(Ordering::Relaxed), last.load(Ordering::Relaxed));
+            let declared = super::ecf::declared_events(data).unwrap_or(0);
+            if rows > 0 && declared != rows && declared != last {
+                return Err(filter_error(format!(
+                    "ECF: a chunk declares {declared} events; chunks of this dataset hold {rows} (the last {last})"
+                )));
+            }
+            let rows = Some(rows).filter(|&r| r > 0);
+            super::ecf::decode_records(data, rows).map_err(|e| filter_error(format!("ECF: {e}")))
         }),
     );
     let file = Hdf5File::from_storage_with_options(
         Arc::new(storage),
         // Batches are whole chunks read once, in order: a chunk cache would only copy them.
+        // Reads of a whole dataset (indexes, triggers) are capped: a damaged size field must
+        // not make the reader allocate without bound.
         OpenOptions::default()
             .with_filter_registry(filters)
-            .with_chunk_cache_bytes(0),
+            .with_chunk_cache_bytes(0)
+            .with_max_read_bytes(MAX_READ_BYTES),
     )
     .map_err(|e| hdf5_error(&context, "not a readable HDF5 file", e))?;
     let layout = Layout::find(&file, &context)?;
     if let Some(rows) = layout.datasets[0].chunks().and_then(|c| c.first().copied()) {
-        chunk_rows.store(rows as usize, Ordering::Relaxed);
+        let rows = rows as usize;
+        let left = (layout.rows % rows.max(1) as u64) as usize;
+        chunk_rows.store(rows, Ordering::Relaxed);
+        last_rows.store(if left == 0 { rows } else { left }, Ordering::Relaxed);
     }
     Hdf5Reader::new(file, layout, context, options)
 }
@@ -415,15 +433,23 @@ impl Hdf5Reader {
                 .notes
                 .push("the file does not state the sensor size; pass --geometry to set it".into());
         }
-        let conv = TimeConv::for_field(&layout.fields[0].scalar, options.text.time_unit)
+        // Metavision's `t` is µs by definition (and its index is in µs); columns follow the
+        // user's time unit.
+        let unit = match layout.kind {
+            LayoutKind::Metavision => TimeUnit::Auto,
+            LayoutKind::Columns => options.text.time_unit,
+        };
+        let conv = TimeConv::for_field(&layout.fields[0].scalar, unit)
             .map_err(|m| Error::unsupported(&context, m))?;
         let mut layout = layout;
         layout.standard_cd &= conv == TimeConv::Ratio(1, 1);
         let (t_offset, seek, triggers, metavision_shift) = match layout.kind {
             LayoutKind::Metavision => {
+                // A plausible time origin only (so subtracting it cannot overflow).
                 let shift = metadata
                     .header_value("time_shift")
-                    .and_then(|v| v.trim().parse().ok());
+                    .and_then(|v| v.trim().parse::<i64>().ok())
+                    .filter(|s| s.unsigned_abs() < 1 << 62);
                 if let Some(s) = shift {
                     metadata.notes.push(format!(
                         "the file records a Metavision time shift of {s} µs (its time origin); times are as stored, --metavision-time subtracts it"
@@ -659,6 +685,7 @@ fn scalar_i64(file: &Hdf5File, path: &str) -> Option<i64> {
 /// The values of a small 1-D integer dataset, or of one field of a compound one.
 fn integer_column(d: &Dataset, field: Option<&str>, limit: u64) -> Option<Vec<i64>> {
     let n = one_dimensional(d, "", "").ok()?;
+    check_record(d, "", "").ok()?;
     if n > limit {
         return None;
     }

@@ -193,6 +193,13 @@ fn damaged_buffers_give_errors() {
             );
         }
     }
+    // Bytes after the events (a damaged count): the buffer is refused.
+    let mut longer = encode(&events(&rows)).unwrap();
+    longer.push(0);
+    assert!(decode(&longer, &mut EcfEvents::default())
+        .unwrap_err()
+        .message
+        .contains("follow"));
     // More events than a buffer may hold.
     let mut big = Vec::new();
     big.extend_from_slice(&(70_000u32 << 2).to_le_bytes());
