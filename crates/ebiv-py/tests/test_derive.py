@@ -2,6 +2,7 @@
 gradient on the same field and the command's file; process(derive=...)."""
 
 import numpy as np
+import xarray as xr
 import pytest
 
 import ebiv
@@ -89,3 +90,14 @@ def test_process_derive_adds_the_variables(simulated):
     np.testing.assert_array_equal(again.vorticity.values, ds.vorticity.values)
     with pytest.raises(ValueError, match="derive"):
         ebiv.process(simulated / "rec.raw", derive="curl")
+
+
+def test_writing_a_dataset_keeps_its_derived_quantities(simulated, tmp_path):
+    ds = ebiv.process(simulated / "rec.raw", slab="10ms", time="10ms:20ms:10ms",
+                      derive=["vorticity"], decode_times=False)
+    for ext in ("nc", "npz", "csv"):
+        out = tmp_path / f"flow.{ext}"
+        ebiv.write(ds, out)
+        assert b"vorticity" in out.read_bytes(), ext
+    back = xr.open_dataset(tmp_path / "flow.nc", decode_times=False)
+    np.testing.assert_allclose(back.vorticity.values, ds.vorticity.values, rtol=1e-6, equal_nan=True)
