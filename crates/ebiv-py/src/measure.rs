@@ -631,7 +631,9 @@ pub fn stats<'py>(
         mm_per_px,
         ..FieldReadOptions::default()
     };
-    let series = series_of(field, &read_options)?;
+    let mut series = series_of(field, &read_options)?;
+    // A scale given for a field without one: the statistics in m/s, y down (as `ebiv stats`).
+    series.scale_if_uncalibrated(mm_per_px);
     let statistics = py
         .detach(|| -> ebiv::Result<_> {
             if let Some(recording) = &triggers {

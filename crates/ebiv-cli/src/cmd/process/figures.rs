@@ -216,7 +216,8 @@ pub fn write_derived_maps(
     let style = ebiv::render::FieldMapStyle {
         vectors: true,
         stride: run.arrow_stride.map(|s| s as usize),
-        range: None,
+        // One colour range for every map of the run, so that they compare.
+        range: Some(ebiv::render::series_range(series, quantity)?),
         title: run
             .input_path()
             .file_name()
