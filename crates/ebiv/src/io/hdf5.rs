@@ -19,6 +19,7 @@
 //! the same.
 
 mod storage;
+mod tables;
 
 use super::npy::{count_outcome, gather, Converter, Kind, Outcome, Scalar, TimeConv};
 use super::prophesee_header::PropheseeHeader;
@@ -33,6 +34,7 @@ use hdf5_reader::{
 use std::sync::atomic::{AtomicUsize, Ordering};
 use std::sync::Arc;
 use storage::SourceStorage;
+use tables::{dsec_index, metavision_index, read_triggers, root_attributes, scalar_i64, SeekTable};
 
 /// Largest element (record) of an event dataset read, bytes.
 const MAX_RECORD_BYTES: usize = 64;
@@ -372,21 +374,6 @@ fn read_any_records(
     }
 }
 
-/// A sorted table from time to the first event at or after it, to seek by.
-#[derive(Debug, Clone, Default)]
-struct SeekTable {
-    /// (time, event index), both rising.
-    entries: Vec<(i64, u64)>,
-}
-
-impl SeekTable {
-    /// The index of an event at or before the first event at or after `t`.
-    fn start_for(&self, t: i64) -> Option<u64> {
-        let k = self.entries.partition_point(|&(time, _)| time <= t);
-        k.checked_sub(1).map(|k| self.entries[k].1)
-    }
-}
-
 struct Hdf5Reader {
     layout: Layout,
     metadata: Metadata,
@@ -638,193 +625,6 @@ impl Hdf5Reader {
         }
         self.report.out_of_range += outside;
     }
-}
-
-/// The root attributes as header entries: strings as stored, numbers written out.
-fn root_attributes(file: &Hdf5File) -> Vec<(String, String)> {
-    let Ok(root) = file.root_group() else {
-        return Vec::new();
-    };
-    let mut entries: Vec<(String, String)> = root
-        .attributes()
-        .unwrap_or_default()
-        .into_iter()
-        .filter_map(|a| {
-            let value = a.read_string().ok().or_else(|| {
-                let v = a.read_as_f64().ok()?;
-                Some(if v.fract() == 0.0 && v.abs() < 9e15 {
-                    format!("{}", v as i64)
-                } else {
-                    format!("{v}")
-                })
-            })?;
-            Some((a.name.clone(), value))
-        })
-        .collect();
-    entries.sort();
-    entries
-}
-
-/// A scalar integer dataset (DSEC `t_offset`).
-fn scalar_i64(file: &Hdf5File, path: &str) -> Option<i64> {
-    let d = file.dataset(path).ok()?;
-    if d.num_elements().ok()? != 1 {
-        return None;
-    }
-    let scalar = scalar_of(d.dtype())?;
-    let bytes = d.read_raw_bytes().ok()?;
-    let mut raw = Vec::new();
-    gather(&bytes, scalar.size, 0, scalar, &mut raw);
-    match scalar.num(*raw.first()?) {
-        super::npy::Num::I(v) => Some(v),
-        super::npy::Num::U(v) => i64::try_from(v).ok(),
-        super::npy::Num::F(_) => None,
-    }
-}
-
-/// The values of a small 1-D integer dataset, or of one field of a compound one.
-fn integer_column(d: &Dataset, field: Option<&str>, limit: u64) -> Option<Vec<i64>> {
-    let n = one_dimensional(d, "", "").ok()?;
-    check_record(d, "", "").ok()?;
-    if n > limit {
-        return None;
-    }
-    let (offset, scalar) = match (d.dtype(), field) {
-        (Datatype::Compound { fields, .. }, Some(name)) => {
-            let f = fields.iter().find(|f| f.name == name)?;
-            (f.byte_offset as usize, scalar_of(&f.datatype)?)
-        }
-        (dtype, None) => (0, scalar_of(dtype)?),
-        _ => return None,
-    };
-    if scalar.kind == Kind::Float {
-        return None;
-    }
-    let size = dtype_element_size(d.dtype()).ok()?;
-    let bytes = d.read_raw_bytes().ok()?;
-    let mut raw = Vec::new();
-    gather(&bytes, size, offset, scalar, &mut raw);
-    raw.into_iter()
-        .map(|v| match scalar.num(v) {
-            super::npy::Num::I(i) => Some(i),
-            super::npy::Num::U(u) => i64::try_from(u).ok(),
-            super::npy::Num::F(_) => None,
-        })
-        .collect()
-}
-
-/// The seek table of `/CD/indexes`: rows `(id, ts)` with `ts` relative to the first event
-/// and the `offset` attribute `−t_first` (formats.md §6.2). An index that is not rising in
-/// both is not used (a warning says so).
-fn metavision_index(file: &Hdf5File, context: &str, report: &mut DecodeReport) -> SeekTable {
-    let Ok(d) = file.dataset("/CD/indexes") else {
-        return SeekTable::default();
-    };
-    let offset = d.attribute("offset").ok().and_then(|a| {
-        a.read_string()
-            .ok()
-            .and_then(|s| s.trim().parse::<i64>().ok())
-    });
-    let (Some(ids), Some(ts), Some(offset)) = (
-        integer_column(&d, Some("id"), MAX_INDEX_ENTRIES),
-        integer_column(&d, Some("ts"), MAX_INDEX_ENTRIES),
-        offset,
-    ) else {
-        return SeekTable::default();
-    };
-    let entries: Vec<(i64, u64)> = ts
-        .iter()
-        .zip(&ids)
-        .filter(|(&t, _)| t >= 0)
-        .filter_map(|(&t, &id)| Some((t.checked_sub(offset)?, u64::try_from(id).ok()?)))
-        .collect();
-    checked_table(entries, context, "/CD/indexes", report)
-}
-
-/// The seek table of a DSEC `ms_to_idx`: entry `k` is the first event at or after `k` ms.
-fn dsec_index(file: &Hdf5File, t_offset: i64) -> SeekTable {
-    let Some(ids) = file
-        .dataset("ms_to_idx")
-        .ok()
-        .and_then(|d| integer_column(&d, None, MAX_INDEX_ENTRIES))
-    else {
-        return SeekTable::default();
-    };
-    let entries = ids
-        .iter()
-        .enumerate()
-        .filter_map(|(k, &id)| {
-            let t = (k as i64).checked_mul(1000)?.checked_add(t_offset)?;
-            Some((t, u64::try_from(id).ok()?))
-        })
-        .collect();
-    checked_table(entries, "", "ms_to_idx", &mut DecodeReport::default())
-}
-
-fn checked_table(
-    entries: Vec<(i64, u64)>,
-    context: &str,
-    name: &str,
-    report: &mut DecodeReport,
-) -> SeekTable {
-    let rising = entries
-        .windows(2)
-        .all(|w| w[0].0 <= w[1].0 && w[0].1 <= w[1].1);
-    if rising {
-        SeekTable { entries }
-    } else {
-        report.warn(format!(
-            "{context}: {name} is not in time order and is not used to seek"
-        ));
-        SeekTable::default()
-    }
-}
-
-/// The trigger edges of `/EXT_TRIGGER/events` (`p`, `t`, `id`), in file order.
-fn read_triggers(
-    file: &Hdf5File,
-    context: &str,
-    report: &mut DecodeReport,
-) -> Result<Vec<Trigger>> {
-    let Ok(d) = file.dataset("/EXT_TRIGGER/events") else {
-        return Ok(Vec::new());
-    };
-    let n = one_dimensional(&d, "/EXT_TRIGGER/events", context)?;
-    if n == 0 {
-        return Ok(Vec::new());
-    }
-    if n > MAX_TRIGGERS {
-        return Err(Error::unsupported(
-            context,
-            format!("/EXT_TRIGGER/events holds {n} edges; at most {MAX_TRIGGERS} are read"),
-        ));
-    }
-    let column = |name| {
-        integer_column(&d, Some(name), MAX_TRIGGERS).ok_or_else(|| {
-            Error::unsupported(
-                context,
-                format!("/EXT_TRIGGER/events has no integer field `{name}` (or cannot be read)"),
-            )
-        })
-    };
-    let (p, t, id) = (column("p")?, column("t")?, column("id")?);
-    let mut triggers = Vec::with_capacity(t.len());
-    for (k, ((&p, &t), &id)) in p.iter().zip(&t).zip(&id).enumerate() {
-        match u8::try_from(id) {
-            Ok(channel) => triggers.push(Trigger {
-                t,
-                channel,
-                value: u8::from(p > 0),
-            }),
-            Err(_) => {
-                report.malformed += 1;
-                report.warn(format!(
-                    "{context}: trigger {k} skipped: channel {id} is not 0–255"
-                ));
-            }
-        }
-    }
-    Ok(triggers)
 }
 
 #[cfg(test)]
