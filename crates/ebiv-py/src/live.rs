@@ -172,6 +172,7 @@ fn summary_to_py<'py>(py: Python<'py>, s: &LiveSummary) -> PyResult<Bound<'py, P
     d.set_item("latency_p99_ms", s.latency_p99_ms)?;
     d.set_item("latency_max_ms", s.latency_max_ms)?;
     d.set_item("empty_fields", s.empty_fields)?;
+    d.set_item("lone_pixel_events", s.lone_pixel_events)?;
     d.set_item("stopped", s.stopped)?;
     d.set_item("warnings", s.report.warnings.clone())?;
     Ok(d)

@@ -10,6 +10,8 @@ use crate::deform::events::Deformation;
 use crate::event::{Geometry, PolaritySelection};
 use crate::grid::Window;
 
+mod lone_pixels;
+
 /// Events of a window in local coordinates, ready for an estimator.
 #[derive(Debug, Clone, Default, PartialEq)]
 pub struct WindowEvents {
@@ -192,6 +194,8 @@ pub struct Slab {
     x: Vec<u16>,
     y: Vec<u16>,
     t: Vec<i64>,
+    /// Events removed by [`Slab::drop_lone_pixels`].
+    lone_pixel_events: usize,
 }
 
 impl Slab {
@@ -285,6 +289,7 @@ impl Slab {
             x: sx,
             y: sy,
             t: st,
+            lone_pixel_events: 0,
         };
         // Tiles of events in time order are in time order.
         if !sorted {
@@ -340,6 +345,11 @@ impl Slab {
                 (a.min(first), b.max(last))
             }))
         })
+    }
+
+    /// Events of lone persistent pixels removed from the slab ([`Slab::drop_lone_pixels`]).
+    pub fn lone_pixel_events(&self) -> usize {
+        self.lone_pixel_events
     }
 
     /// Number of events in the slab.

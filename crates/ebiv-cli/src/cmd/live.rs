@@ -216,9 +216,16 @@ fn report(s: &LiveSummary, output: Option<&std::path::Path>) {
             s.empty_fields
         );
     }
+    if s.lone_pixel_events > 0 {
+        println!(
+            "{}",
+            ebiv::process::lone_pixel_line(s.lone_pixel_events as usize)
+        );
+    }
     for w in &s.report.warnings {
         println!("warning: {w}");
     }
+    crate::cmd::print_denoise_report(s.report.denoise.as_ref());
     if let Some(path) = output {
         println!("wrote {}", path.display());
     }

@@ -266,6 +266,9 @@ pub struct LiveSummary {
     pub latency_max_ms: f64,
     /// Fields whose slab held no event of the selected polarity.
     pub empty_fields: u64,
+    /// Events of lone hot pixels left out of the fields' slabs, summed over fields
+    /// ([`crate::volume::Slab::drop_lone_pixels`]).
+    pub lone_pixel_events: u64,
     /// What the reader dropped or skipped.
     #[serde(skip)]
     pub report: DecodeReport,

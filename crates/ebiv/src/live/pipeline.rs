@@ -417,17 +417,7 @@ fn cut_slabs(
             }
         }
         let ended = batches.instant_of(end).unwrap_or_else(Instant::now);
-        let slab = Slab::build(
-            &events.t,
-            &events.x,
-            &events.y,
-            &events.p,
-            plan.geometry,
-            start,
-            end,
-            plan.params.polarity,
-            plan.params.tile_size(),
-        );
+        let slab = plan.params.field_slab(events, plan.geometry, start, end);
         let shown = plan
             .events_every
             .filter(|_| Instant::now() >= events_due)
@@ -498,6 +488,7 @@ fn deliver<E: Estimator>(
         let latency = job.ended.elapsed().as_secs_f64() * 1e3;
         latencies.push(latency);
         summary.empty_fields += u64::from(job.slab.is_empty());
+        summary.lone_pixel_events += job.slab.lone_pixel_events() as u64;
         let now = Instant::now();
         stats.fields += 1;
         stats.dropped += dropped_before;

@@ -19,14 +19,14 @@ pub use multipass::{run_passes, MultiPass, PassEvaluator, PassReport, PassesOutc
 pub use plan::{coverage, first_event_time, plan_fields, Coverage, PlannedFields, MAX_FIELDS};
 pub(crate) use stream::run_attributes;
 pub use stream::{
-    process_recording, scan_extent, BatchSource, FieldDone, MemorySource, RecordingExtent,
-    RunSummary, SlidingEvents,
+    lone_pixel_line, process_recording, scan_extent, BatchSource, FieldDone, MemorySource,
+    RecordingExtent, RunSummary, SlidingEvents,
 };
 pub use times::{FieldTimes, TimeSteps};
 
 use crate::error::Result;
 use crate::estimate::Estimator;
-use crate::event::{Geometry, PolaritySelection};
+use crate::event::{EventBuffer, Geometry, PolaritySelection};
 use crate::field::{Status, VectorField};
 use crate::grid::{Grid, GridSpec, Mask};
 use crate::validate::{self, ValidationParams, ValidationSummary};
@@ -98,6 +98,9 @@ pub struct ProcessParams {
     /// Estimate the per-vector uncertainty on the last pass ([`Estimator::skip_uncertainty`]
     /// on the others, and everywhere when false).
     pub uncertainty: bool,
+    /// Leave the events of lone persistent pixels (hot pixels) out of every field's slab
+    /// ([`Slab::drop_lone_pixels`]).
+    pub drop_lone_pixels: bool,
 }
 
 impl Default for ProcessParams {
@@ -114,6 +117,7 @@ impl Default for ProcessParams {
             repeat_tolerance: 0.005,
             secondary_peaks: true,
             uncertainty: true,
+            drop_lone_pixels: true,
         }
     }
 }
@@ -139,6 +143,32 @@ impl ProcessParams {
             ));
         }
         self.passes.iter().map(|p| Grid::new(p, geometry)).collect()
+    }
+
+    /// The slab of a field: the events of `[start_us, end_us)` with the selected polarity,
+    /// binned into tiles, without the lone persistent pixels when `drop_lone_pixels`.
+    pub fn field_slab(
+        &self,
+        events: &EventBuffer,
+        geometry: Geometry,
+        start_us: i64,
+        end_us: i64,
+    ) -> Slab {
+        let mut slab = Slab::build(
+            &events.t,
+            &events.x,
+            &events.y,
+            &events.p,
+            geometry,
+            start_us,
+            end_us,
+            self.polarity,
+            self.tile_size(),
+        );
+        if self.drop_lone_pixels {
+            slab.drop_lone_pixels();
+        }
+        slab
     }
 
     /// Side of the square tiles a slab is binned into: half the smallest window, so a

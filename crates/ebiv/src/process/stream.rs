@@ -117,6 +117,18 @@ pub struct RunSummary {
     /// Fields whose time interval held no event of the selected polarity (all their vectors
     /// are gaps): a `--time` beyond the recording, or a polarity the camera did not record.
     pub empty_fields: usize,
+    /// Events of lone persistent pixels (hot pixels) left out of the fields' slabs
+    /// ([`crate::volume::Slab::drop_lone_pixels`]), summed over fields (an event in the
+    /// slabs of several fields counts in each).
+    pub lone_pixel_events: usize,
+}
+
+/// "left out 25 events of lone hot pixels …": what [`RunSummary::lone_pixel_events`] (or the
+/// live summary's) counts, for the commands to print.
+pub fn lone_pixel_line(events: usize) -> String {
+    format!(
+        "left out {events} events of lone hot pixels (pixels that fire through a field's slab while none of their neighbours does; drop-lone-pixels, docs/denoise.md)"
+    )
 }
 
 /// What the caller sees after each field: for progress bars and figures.
@@ -218,18 +230,7 @@ pub fn process_recording<E: Estimator, S: BatchSource + Send>(
     let mut next_slab = |sliding: &mut SlidingEvents, t0: i64, keep_from: i64| -> Result<Slab> {
         let (start, end) = (t0 - before, t0 + after);
         sliding.advance(source, keep_from.min(start), end)?;
-        let events = sliding.events();
-        Ok(Slab::build(
-            &events.t,
-            &events.x,
-            &events.y,
-            &events.p,
-            geometry,
-            start,
-            end,
-            params.polarity,
-            params.tile_size(),
-        ))
+        Ok(params.field_slab(sliding.events(), geometry, start, end))
     };
     let mut slab = match times.first() {
         Some(&t0) => Some(next_slab(&mut sliding, t0, t0 - before)?),
@@ -254,6 +255,7 @@ pub fn process_recording<E: Estimator, S: BatchSource + Send>(
         summary.events_read = sliding.events_read;
         summary.fields += 1;
         summary.empty_fields += usize::from(current.is_empty());
+        summary.lone_pixel_events += current.lone_pixel_events();
         summary.vectors += result.field.len();
         summary.valid += result.field.status.iter().filter(|s| s.is_valid()).count();
         summary.flagged += result.validation.valid_before - result.validation.valid_after;
@@ -328,6 +330,10 @@ pub(crate) fn run_attributes<E: Estimator>(
             (params.secondary_peaks && estimator.finds_secondary_peaks()).to_string(),
         ),
         ("uncertainty".to_string(), params.uncertainty.to_string()),
+        (
+            "drop_lone_pixels".to_string(),
+            params.drop_lone_pixels.to_string(),
+        ),
     ];
     a.extend(estimator.parameters());
     a

@@ -131,6 +131,10 @@ settings! {
         absolute_time: bool = false; "";
         /// Events used: pos, neg or both (pos, as in the EBIV paper).
         polarity: PolaritySelection = PolaritySelection::Positive; "POL";
+        /// Leave out of each field (corrsum, motion) the pixels that fire through most of its
+        /// time span while none of their 8 neighbours does: hot pixels, which would show as
+        /// vectors at rest in sparse windows (no particle image is a single pixel).
+        drop_lone_pixels: bool = true; "";
     }
     group "Denoising" {
         /// Filters that remove noise events as the recording is read, before anything else:

@@ -297,6 +297,7 @@ impl ProcessSettings {
             repeat_tolerance: self.repeat_tolerance.unwrap_or(EVENT_REPEAT_TOLERANCE),
             secondary_peaks: self.secondary_peaks,
             uncertainty: self.uncertainty,
+            drop_lone_pixels: self.drop_lone_pixels,
         };
         if is_piv {
             piv.check()?;

@@ -115,6 +115,13 @@ impl Resolved {
         if let Some(d) = &self.denoise {
             series.attributes.push(("denoise".into(), d.describe()));
         }
+        if self.process.drop_lone_pixels && matches!(self.method, Method::CorrSum | Method::Motion)
+        {
+            series.attributes.push((
+                "lone_pixel_events".into(),
+                summary.lone_pixel_events.to_string(),
+            ));
+        }
         Ok(Measurement {
             series,
             summary,

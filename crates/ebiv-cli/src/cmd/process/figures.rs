@@ -94,6 +94,12 @@ pub fn finish_recording_run(
         summary.vectors as f64 / seconds
     );
     print_invalid_flags(series);
+    if summary.lone_pixel_events > 0 {
+        println!(
+            "{}",
+            ebiv::process::lone_pixel_line(summary.lone_pixel_events)
+        );
+    }
     println!("wrote {}", run.output.display());
     Ok(())
 }
