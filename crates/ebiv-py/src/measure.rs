@@ -423,17 +423,8 @@ pub(crate) fn series_of(
     let dataset = dataset_from_py(field)?;
     let temp = TempFile::new("nc");
     ebiv::export::write_dataset_netcdf(&dataset, &temp.0).py_err()?;
-    let mut series = read_field(&temp.0, options).py_err()?;
-    // The field reader does not read derived quantities back: derive the ones the dataset
-    // holds again from its velocities (the same values), so that nothing is lost.
-    let derived: Vec<_> = ebiv::derived::DerivedQuantity::ALL
-        .into_iter()
-        .filter(|q| dataset.variables.iter().any(|v| v.name == q.name()))
-        .collect();
-    if !derived.is_empty() {
-        ebiv::derived::add_derived(&mut series, &derived).py_err()?;
-    }
-    Ok(series)
+    // The reader takes the derived quantities the dataset holds as they are.
+    read_field(&temp.0, options).py_err()
 }
 
 /// A file in the temporary folder, removed when dropped.

@@ -101,3 +101,43 @@ def test_writing_a_dataset_keeps_its_derived_quantities(simulated, tmp_path):
         assert b"vorticity" in out.read_bytes(), ext
     back = xr.open_dataset(tmp_path / "flow.nc", decode_times=False)
     np.testing.assert_allclose(back.vorticity.values, ds.vorticity.values, rtol=1e-6, equal_nan=True)
+
+
+def test_writing_a_dataset_writes_its_derived_values_as_they_are(tmp_path):
+    pytest.importorskip("xarray")
+    ds = ebiv.derive(_rotation(), "vorticity,divergence", decode_times=False)
+    # Values no gradient of the velocities gives: the writer must take them from the dataset.
+    ds["vorticity"].values[...] = 0.125
+    ebiv.write(ds, tmp_path / "w.nc")
+    ebiv.write(ds, tmp_path / "w.npz")
+    ebiv.write(ds, tmp_path / "w.csv")
+    with xr.open_dataset(tmp_path / "w.nc", decode_times=False) as back:
+        assert np.all(back.vorticity.values == 0.125)
+        np.testing.assert_array_equal(back.divergence.values, ds.divergence.values)
+    assert np.all(np.load(tmp_path / "w.npz")["vorticity"] == 0.125)
+    table = np.genfromtxt(tmp_path / "w.csv", delimiter=",", names=True)
+    assert np.all(table["vorticity_1_ms"] == 0.125)
+
+
+def test_converting_a_field_file_keeps_its_derived_quantities(tmp_path):
+    pytest.importorskip("xarray")
+    field = _rotation()
+    reference = tmp_path / "derived.nc"
+    ebiv.derive(field, mm_per_px=0.05, output=reference, decode_times=False)
+    for ext in ("npz", "csv", "nc"):
+        source = tmp_path / f"derived.{ext}"
+        ebiv.derive(field, mm_per_px=0.05, output=source, decode_times=False)
+        converted = tmp_path / f"from_{ext}.nc"
+        ebiv.write(source, converted)
+        with xr.open_dataset(converted, decode_times=False) as got, \
+                xr.open_dataset(reference, decode_times=False) as want:
+            for name in ["vorticity", "divergence", "e_xx", "e_yy", "e_xy", "swirling_strength"]:
+                if ext == "csv":
+                    # The CSV reader takes the image columns (1/ms) and no calibration.
+                    assert got[name].attrs["units"] == "1/ms"
+                    np.testing.assert_allclose(got[name].values * 1000, want[name].values,
+                                               rtol=1e-6, err_msg=name)
+                else:
+                    np.testing.assert_array_equal(got[name].values, want[name].values,
+                                                  err_msg=f"{ext}: {name}")
+                    assert got[name].attrs == want[name].attrs

@@ -23,6 +23,13 @@ _TYPES = {
     "status": np.int16,
     "event_count": np.int32,
     "slab_us": np.int32,
+    # Derived quantities (ebiv.derive).
+    "vorticity": np.float32,
+    "divergence": np.float32,
+    "e_xx": np.float32,
+    "e_yy": np.float32,
+    "e_xy": np.float32,
+    "swirling_strength": np.float32,
 }
 
 #: Dimensions of the variables that do not span (time, y, x).

@@ -26,12 +26,14 @@
 //! of the complex eigenvalues of the 2-D velocity-gradient tensor, 0 where they are real
 //! (Zhou, Adrian, Balachandar & Kendall, J. Fluid Mech. 387:353, 1999); it has no sign.
 
+mod files;
 mod gradient;
 
+pub(crate) use files::written_value;
 pub use gradient::{gradients, Gradient};
 
 use crate::error::{Error, Result};
-use crate::field::{Calibration, FieldSeries, Quantity};
+use crate::field::FieldSeries;
 use rayon::prelude::*;
 
 /// A quantity derived from the velocity gradient.
@@ -127,49 +129,6 @@ impl DerivedQuantity {
             DerivedQuantity::StrainXy => 0.5 * (g.du_dy + g.dv_dx),
             DerivedQuantity::SwirlingStrength => g.swirling_strength(),
         }
-    }
-
-    /// The unit of the quantity of a series holding `quantity`, as written with
-    /// `calibration`: 1/ms (1/s calibrated) for velocities, `1` (per frame interval) for the
-    /// displacements of image pairs.
-    pub fn unit(quantity: Quantity, calibration: Option<&Calibration>) -> &'static str {
-        match (quantity, calibration) {
-            (Quantity::Displacement, _) => "1",
-            (Quantity::Velocity, None) => "1/ms",
-            (Quantity::Velocity, Some(_)) => "1/s",
-        }
-    }
-
-    /// The factor from the computed value (image coordinates) to the written one: 1000
-    /// from 1/ms to 1/s for calibrated velocities, negated for a quantity odd in y when the
-    /// calibration has y up.
-    pub fn written_factor(self, quantity: Quantity, calibration: Option<&Calibration>) -> f64 {
-        let Some(c) = calibration else {
-            return 1.0;
-        };
-        let scale = if quantity == Quantity::Velocity {
-            1000.0
-        } else {
-            1.0
-        };
-        if c.y_up && self.odd_in_y() {
-            -scale
-        } else {
-            scale
-        }
-    }
-
-    /// The values of `field` of `series` as written (see [`DerivedQuantity::written_factor`]).
-    pub fn written(field: &DerivedField, series: &FieldSeries) -> Vec<f32> {
-        let k = field
-            .quantity
-            .written_factor(series.quantity, series.calibration.as_ref());
-        field
-            .values
-            .iter()
-            // `+ 0.0` turns the -0 of a flipped zero into 0.
-            .map(|&v| (v as f64 * k + 0.0) as f32)
-            .collect()
     }
 }
 

@@ -1,5 +1,5 @@
 use super::*;
-use crate::field::{Status, VectorField};
+use crate::field::{Calibration, Status, VectorField};
 
 /// A one-field series on a 7 × 5 grid of step 8 px (origin 4, 4) holding `f(x, y)`.
 fn series_of(f: impl Fn(f64, f64) -> (f64, f64)) -> FieldSeries {

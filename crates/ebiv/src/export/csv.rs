@@ -24,14 +24,15 @@
 //! follow (`u_mm,v_mm,u_unc_mm,v_unc_mm` for displacements; y and v positive up when the
 //! calibration says `y_up`, the uncertainties scaled but never negated). One line per vector,
 //! time-major, then rows, then columns. Quantities derived from the velocity gradient
-//! ([`FieldSeries::derived`]) come last, each in image units (`vorticity_1_ms`; `_1` for
-//! displacements) and, with a calibration, physical ones (`vorticity_1_s`). Invalid values are written as `NaN`; floats in their
-//! shortest exact form.
+//! ([`FieldSeries::derived`]) come last, each in image coordinates and units
+//! (`vorticity_1_ms`; `vorticity_1` for displacements) and, where a calibration writes other
+//! values, as it writes them (`vorticity_1_s`, `vorticity_y_up`; see
+//! [`crate::derived::DerivedQuantity::physical_name`]). Invalid values are written as `NaN`;
+//! floats in their shortest exact form.
 //!
 //! [`TimeBasis`]: crate::field::TimeBasis
 
 use super::{check, write_atomic, Physical};
-use crate::derived::DerivedQuantity;
 use crate::error::Result;
 use crate::field::{FieldSeries, TimeBasis};
 use std::io::Write;
@@ -68,12 +69,14 @@ pub fn csv_header(field: &FieldSeries) -> String {
         }
     }
     for d in &field.derived {
-        let name = d.quantity.name();
-        let image = suffix(DerivedQuantity::unit(field.quantity, None));
-        header.push_str(&format!(",{name}_{image}"));
-        if let Some(c) = &field.calibration {
-            let physical = suffix(DerivedQuantity::unit(field.quantity, Some(c)));
-            header.push_str(&format!(",{name}_{physical}"));
+        header.push(',');
+        header.push_str(&d.quantity.image_column(field.quantity));
+        let physical = d
+            .quantity
+            .physical_name(field.quantity, field.calibration.as_ref());
+        if let Some(name) = physical {
+            header.push(',');
+            header.push_str(&name);
         }
     }
     header
@@ -129,12 +132,16 @@ pub(crate) fn write_csv_row(
             write!(w, ",{},{}", p.u_unc[i], p.v_unc[i])?;
         }
     }
+    let calibration = field.calibration.as_ref();
     for d in &field.derived {
         let value = d.values[i];
         write!(w, ",{value}")?;
-        if let Some(c) = &field.calibration {
-            let k = d.quantity.written_factor(field.quantity, Some(c));
-            write!(w, ",{}", (value as f64 * k + 0.0) as f32)?;
+        if d.quantity
+            .physical_name(field.quantity, calibration)
+            .is_some()
+        {
+            let k = d.quantity.written_factor(field.quantity, calibration);
+            write!(w, ",{}", crate::derived::written_value(value, k))?;
         }
     }
     Ok(())

@@ -197,7 +197,11 @@ pub(crate) fn check(field: &FieldSeries) -> Result<()> {
         ("event_count", field.event_count.len()),
         ("slab_us", field.slab_us.len()),
     ];
-    for (name, len) in lengths {
+    let derived = field
+        .derived
+        .iter()
+        .map(|d| (d.quantity.name(), d.values.len()));
+    for (name, len) in lengths.into_iter().chain(derived) {
         if len != n {
             return Err(Error::parameter(
                 "field",

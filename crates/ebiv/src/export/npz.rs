@@ -10,15 +10,19 @@
 //! each vector was measured over, µs, 0 where there is none). With a calibration also `x_mm`,
 //! `y_mm` (`<f8`) and `u_m_s`, `v_m_s`, `u_unc_m_s`, `v_unc_m_s` (`<f4`; y and v positive up
 //! when `y_up`, the uncertainties scaled but never negated). Derived quantities
-//! ([`crate::derived`]) under their names (`vorticity`, `<f4`, image coordinates, 1/ms), and
-//! for calibrated velocities also in 1/s (`vorticity_1_s`, flipped with y). `attributes` is a
-//! 1-D unicode array (`<U…`) of `key=value` strings: axis convention, units, status legend,
-//! what `slab_us` holds, calibration, software and the series' attributes. Everything loads
+//! ([`crate::derived`]) under their names (`vorticity`, `<f4`, image coordinates and units:
+//! 1/ms, `1` for displacements) and, where a calibration writes other values, as it writes
+//! them (`vorticity_1_s` for velocities, `vorticity_y_up` for displacements with y up; see
+//! [`crate::derived::DerivedQuantity::physical_name`]). `attributes` is a 1-D unicode array
+//! (`<U…`) of `key=value` strings: axis convention, units, status legend, what `slab_us`
+//! holds, calibration, software, the series' attributes and, last, one per derived array
+//! (its definition, sign convention and unit). Everything loads
 //! with `numpy.load(path)` without pickles.
 //!
 //! [`Status`]: crate::field::Status
 
 use super::{check, metadata, write_atomic, Physical};
+use crate::derived::DerivedQuantity;
 use crate::error::Result;
 use crate::field::FieldSeries;
 use std::io::Write;
@@ -133,21 +137,35 @@ pub fn write_field_npz(field: &FieldSeries, path: &Path) -> Result<()> {
         members.push(("u_unc_m_s", npy(&p.u_unc, &shape)));
         members.push(("v_unc_m_s", npy(&p.v_unc, &shape)));
     }
-    let physical_names: Vec<String> = field
+    let calibration = field.calibration.as_ref();
+    let mut derived_attributes = Vec::new();
+    let physical_names: Vec<Option<String>> = field
         .derived
         .iter()
-        .map(|d| format!("{}_1_s", d.quantity.name()))
+        .map(|d| d.quantity.physical_name(field.quantity, calibration))
         .collect();
     for (d, physical) in field.derived.iter().zip(&physical_names) {
-        members.push((d.quantity.name(), npy(&d.values, &shape)));
-        if field.calibration.is_some() && field.quantity == crate::field::Quantity::Velocity {
-            let written = crate::derived::DerivedQuantity::written(d, field);
-            members.push((physical, npy(&written, &shape)));
+        let q = d.quantity;
+        members.push((q.name(), npy(&d.values, &shape)));
+        derived_attributes.push(format!(
+            "{}={}, {}",
+            q.name(),
+            q.long_name(false),
+            DerivedQuantity::unit(field.quantity, None)
+        ));
+        if let (Some(name), Some(c)) = (physical, calibration) {
+            members.push((name, npy(&DerivedQuantity::written(d, field), &shape)));
+            derived_attributes.push(format!(
+                "{name}={}, {}",
+                q.long_name(c.y_up),
+                DerivedQuantity::unit(field.quantity, calibration)
+            ));
         }
     }
     let attributes: Vec<String> = metadata(field)
         .into_iter()
         .map(|(k, v)| format!("{k}={v}"))
+        .chain(derived_attributes)
         .collect();
     members.push(("attributes", npy_strings(&attributes)));
 

@@ -3,7 +3,7 @@
 //! arrows on top. Signed quantities get a diverging blue–white–red map centred on 0.
 
 use super::colormap::{blue_red, inferno};
-use super::vector_map::{auto_range_at, draw_map, Layer, ScalarLayer, VectorMapStyle};
+use super::vector_map::{auto_range_of, draw_map, Layer, ScalarLayer, VectorMapStyle};
 use crate::event::Geometry;
 use crate::field::VectorField;
 use image::RgbImage;
@@ -49,17 +49,27 @@ pub fn scalar_range(values: &[f32], style: &ScalarMapStyle) -> (f32, f32) {
     {
         return (a, b);
     }
-    if style.signed {
-        let magnitudes: Vec<f32> = values
+    let kept: Vec<f32> = if style.signed {
+        values
             .iter()
             .map(|v| v.abs())
             .filter(|v| v.is_finite())
-            .collect();
-        let (_, top) = auto_range_at(&magnitudes, RANGE_QUANTILE);
+            .collect()
+    } else {
+        values.iter().copied().filter(|v| v.is_finite()).collect()
+    };
+    scalar_range_of_finite(kept, style.signed)
+}
+
+/// The automatic colour range (see [`ScalarMapStyle::range`]) of `kept`: the finite values,
+/// or the finite |values| when `signed`; taken by value so that a series' values are held
+/// once.
+pub(crate) fn scalar_range_of_finite(kept: Vec<f32>, signed: bool) -> (f32, f32) {
+    if signed {
+        let (_, top) = auto_range_of(kept, RANGE_QUANTILE);
         (-top, top)
     } else {
-        let finite: Vec<f32> = values.iter().copied().filter(|v| v.is_finite()).collect();
-        auto_range_at(&finite, RANGE_QUANTILE)
+        auto_range_of(kept, RANGE_QUANTILE)
     }
 }
 

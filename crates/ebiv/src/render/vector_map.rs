@@ -78,7 +78,12 @@ pub(crate) fn auto_range(mags: &[f32]) -> (f32, f32) {
 
 /// Colour range: 0 to the `q` quantile of `mags` rounded up to two significant digits.
 pub(crate) fn auto_range_at(mags: &[f32], q: f64) -> (f32, f32) {
-    let top = quantile(&mut mags.to_vec(), q).unwrap_or(0.0) as f64;
+    auto_range_of(mags.to_vec(), q)
+}
+
+/// [`auto_range_at`] of values the caller no longer needs (no copy of them).
+pub(crate) fn auto_range_of(mut mags: Vec<f32>, q: f64) -> (f32, f32) {
+    let top = quantile(&mut mags, q).unwrap_or(0.0) as f64;
     if !(top.is_finite() && top > 0.0) {
         return (0.0, 1.0);
     }

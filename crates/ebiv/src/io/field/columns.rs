@@ -4,6 +4,8 @@
 //! `x (mm)`) or, as ebiv writes them, as a suffix with `/` spelled `_` (`u_px_ms`, `x_mm`,
 //! `t_us`). Case and surrounding quotes are ignored.
 
+use crate::derived::DerivedQuantity;
+
 /// What a column holds.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Role {
@@ -39,6 +41,9 @@ pub enum Role {
     UUnc,
     /// Standard uncertainty of v.
     VUnc,
+    /// A quantity derived from the velocity gradient, as ebiv names its columns
+    /// (`vorticity_1_ms`, `vorticity_1_s`, `vorticity_y_up`; [`crate::derived`]).
+    Derived(DerivedQuantity),
     /// Anything else (ignored).
     Other,
 }
@@ -119,6 +124,17 @@ impl Column {
                 name: name.to_string(),
             };
         }
+        for q in DerivedQuantity::ALL {
+            if let Some(rest) = s.strip_prefix(q.name()).and_then(|r| r.strip_prefix('_')) {
+                if matches!(rest, "1" | "1_ms" | "1_s" | "y_up") {
+                    return Column {
+                        role: Role::Derived(q),
+                        unit: rest.replace('_', "/"),
+                        name: name.to_string(),
+                    };
+                }
+            }
+        }
         for (base, role) in SUFFIXED {
             if let Some(rest) = s.strip_prefix(base).and_then(|r| r.strip_prefix('_')) {
                 if !rest.is_empty() {
@@ -165,6 +181,16 @@ mod tests {
         assert_eq!(Column::parse("peak_ratio").role, Role::PeakRatio);
         assert_eq!(Column::parse("slab_us").role, Role::SlabUs);
         assert_eq!(Column::parse("vorticity [1/frame]").role, Role::Other);
+        assert_eq!(Column::parse("vorticity").role, Role::Other);
+        let c = Column::parse("vorticity_1_ms");
+        let vorticity = Role::Derived(DerivedQuantity::Vorticity);
+        assert_eq!((c.role, c.unit.as_str()), (vorticity, "1/ms"));
+        let c = Column::parse("e_xy_1");
+        let e_xy = Role::Derived(DerivedQuantity::StrainXy);
+        assert_eq!((c.role, c.unit.as_str()), (e_xy, "1"));
+        let c = Column::parse("swirling_strength_y_up");
+        let swirl = Role::Derived(DerivedQuantity::SwirlingStrength);
+        assert_eq!((c.role, c.unit.as_str()), (swirl, "y/up"));
         assert_eq!(Column::parse("Y").role, Role::Y);
         assert!(Column::parse("x_px").in_image_units());
     }

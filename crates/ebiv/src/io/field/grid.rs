@@ -1,6 +1,7 @@
 //! Scattered table rows (one vector per row, any order) placed on the regular grid they
 //! span: the distinct x, y and times become the axes, nodes without a row stay invalid.
 
+use crate::derived::DerivedField;
 use crate::error::{Error, Result};
 use crate::field::{FieldSeries, Status, TimeBasis};
 
@@ -19,6 +20,8 @@ pub(super) struct Rows {
     pub slab_us: Vec<u32>,
     pub u_unc: Vec<f32>,
     pub v_unc: Vec<f32>,
+    /// Derived quantities, each with one value per row ([`crate::derived`]).
+    pub derived: Vec<DerivedField>,
     /// 1-based line of each row, for errors.
     pub line: Vec<u64>,
 }
@@ -86,9 +89,11 @@ pub(super) fn assemble(rows: Rows, context: &str, basis: TimeBasis) -> Result<Fi
     let mut filled = vec![false; s.u.len()];
     let mut unc_u = vec![f32::NAN; s.u.len()];
     let mut unc_v = vec![f32::NAN; s.u.len()];
+    let mut node = Vec::with_capacity(n);
     for r in 0..n {
         let ti = s.t_us.binary_search(&rows.t[r]).unwrap_or(0);
         let i = s.index(ti, find(&s.y, rows.y[r]), find(&s.x, rows.x[r]));
+        node.push(i);
         if filled[i] {
             return Err(Error::Parse {
                 context: context.into(),
@@ -111,6 +116,19 @@ pub(super) fn assemble(rows: Rows, context: &str, basis: TimeBasis) -> Result<Fi
         unc_v[i] = rows.v_unc[r];
     }
     set_uncertainty(&mut s, unc_u, unc_v);
+    s.derived = rows
+        .derived
+        .iter()
+        .map(|d| DerivedField {
+            quantity: d.quantity,
+            values: vec![f32::NAN; s.u.len()],
+        })
+        .collect();
+    for (r, &i) in node.iter().enumerate() {
+        for (to, from) in s.derived.iter_mut().zip(&rows.derived) {
+            to.values[i] = from.values[r];
+        }
+    }
     Ok(s)
 }
 

@@ -1,5 +1,5 @@
-//! Readers of vector fields ([`FieldSeries`]): the NetCDF and CSV files ebiv writes, and the
-//! CSV or whitespace-separated tables of other tools (OpenPIV, PIVlab and any table with
+//! Readers of vector fields ([`FieldSeries`]): the NetCDF, NPZ and CSV files ebiv writes, and
+//! the CSV or whitespace-separated tables of other tools (OpenPIV, PIVlab and any table with
 //! columns named x, y, u, v). [`read_field`] chooses the reader by content.
 //!
 //! Fields come back in image units, px and px/ms (or px for displacements), whatever the
@@ -7,11 +7,13 @@
 //! calibration (ebiv's `mm_per_px`, `origin_px` and `y_positive` attributes, PIVlab's
 //! "conversion factor xy") or with [`FieldReadOptions::mm_per_px`]; without either, a
 //! calibrated file is an error that asks for the scale. Per-vector uncertainties (`u_unc`,
-//! `v_unc`) are read where present. `docs/assess.md` lists the recognised columns.
+//! `v_unc`) and derived quantities ([`crate::derived`]) are read where present, back in image
+//! coordinates and units, so that a series read and written again holds the same values. `docs/assess.md` lists the recognised columns.
 
 mod columns;
 mod grid;
 mod netcdf;
+mod npz;
 mod table;
 
 pub use columns::{Column, Role};
@@ -54,7 +56,8 @@ impl FieldReadOptions {
 /// Largest text file read, bytes (a field table of 10⁷ vectors is about 1 GB).
 pub const MAX_TEXT_BYTES: u64 = 2 << 30;
 
-/// Read the vector-field file `path`: NetCDF classic (by its signature) or a text table.
+/// Read the vector-field file `path`: NetCDF classic or NPZ (by their signatures) or a text
+/// table.
 pub fn read_field(path: &Path, options: &FieldReadOptions) -> Result<FieldSeries> {
     options.validate()?;
     let meta = std::fs::metadata(path).map_err(|e| Error::io(path, e))?;
@@ -89,10 +92,13 @@ pub fn read_field(path: &Path, options: &FieldReadOptions) -> Result<FieldSeries
              (`nccopy -k classic in.nc out.nc`, or xarray `to_netcdf(format=\"NETCDF3_64BIT\")`)",
         ));
     }
-    if magic.starts_with(b"PK") || magic.starts_with(b"\x93NUM") {
+    if magic.starts_with(b"PK") {
+        return npz::read(path, options);
+    }
+    if magic.starts_with(b"\x93NUM") {
         return Err(Error::unsupported(
             context,
-            "NumPy files are not read as vector fields; write the field as .nc or .csv",
+            "a single NumPy array is not a vector field; write the field as .nc, .npz or .csv",
         ));
     }
     if meta.len() > MAX_TEXT_BYTES {

@@ -1,11 +1,14 @@
 //! Vector fields from NetCDF classic files in the layout of ebiv's NetCDF export
 //! ([`crate::export::write_field_netcdf`]): `u`, `v` over (time, y, x) or (y, x), coordinate
 //! variables `x`, `y` (and `x_px`, `y_px` in calibrated files), optional `time`, `status`,
-//! `peak`, `peak_ratio`, `event_count`, `slab_us`, `u_unc`, `v_unc`; the calibration from the
-//! global attributes `mm_per_px`, `origin_px` and `y_positive`.
+//! `peak`, `peak_ratio`, `event_count`, `slab_us`, `u_unc`, `v_unc`, the derived quantities
+//! (`vorticity`, …, [`crate::derived`]: their calibration's factor undone, so that they are
+//! written again unchanged); the calibration from the global attributes `mm_per_px`,
+//! `origin_px` and `y_positive`.
 
 use super::grid::set_uncertainty;
 use super::FieldReadOptions;
+use crate::derived::{DerivedField, DerivedQuantity};
 use crate::error::Result;
 use crate::field::{Calibration, FieldSeries, Quantity, Status, TimeBasis};
 use crate::sim::flow::gridded::netcdf::Reader;
@@ -243,6 +246,46 @@ pub(super) fn read(path: &Path, options: &FieldReadOptions) -> Result<FieldSerie
     if has(&r, "slab_us") {
         s.slab_us = counts(read_len(&mut r, "slab_us")?);
     }
+    for q in DerivedQuantity::ALL {
+        if !has(&r, q.name()) {
+            continue;
+        }
+        let mut unit = units(&r, q.name());
+        if unit.is_empty() {
+            // Without units: those the writer gives the series' velocities.
+            unit = DerivedQuantity::unit(quantity, calibration.as_ref()).to_string();
+        }
+        let scale = match (quantity, unit.as_str()) {
+            (Quantity::Velocity, "1/ms") | (Quantity::Displacement, "1") => 1.0,
+            (Quantity::Velocity, "1/s") => 1000.0,
+            _ => {
+                return Err(r.err(format!(
+                    "`{}` has the units `{unit}`; the {} of the file give {}",
+                    q.name(),
+                    quantity.noun(),
+                    if quantity == Quantity::Velocity {
+                        "1/ms or 1/s"
+                    } else {
+                        "1"
+                    }
+                )))
+            }
+        };
+        // The writer negates the quantities odd in y with a y-up calibration.
+        let factor = if calibration.is_some_and(|c| c.y_up) && q.odd_in_y() {
+            -scale
+        } else {
+            scale
+        };
+        let values = read_len(&mut r, q.name())?
+            .into_iter()
+            .map(|w| DerivedQuantity::from_written(w, factor))
+            .collect();
+        s.derived.push(DerivedField {
+            quantity: q,
+            values,
+        });
+    }
     if has(&r, "u_unc") && has(&r, "v_unc") {
         let uu = to_f32(read_len(&mut r, "u_unc")?, factor);
         let vu = to_f32(read_len(&mut r, "v_unc")?, factor);
@@ -254,6 +297,7 @@ pub(super) fn read(path: &Path, options: &FieldReadOptions) -> Result<FieldSerie
             .chain(s.v.iter_mut())
             .chain(s.u_unc.iter_mut())
             .chain(s.v_unc.iter_mut())
+            .chain(s.derived.iter_mut().flat_map(|d| d.values.iter_mut()))
             .for_each(|w| *w = (*w as f64 * k) as f32);
         s.quantity = Quantity::Velocity;
     }

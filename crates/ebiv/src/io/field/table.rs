@@ -6,11 +6,13 @@
 //! skipped (PIVlab's title and frame lines, whose "conversion factor xy (px -> m)" gives the
 //! scale of calibrated exports). Cells are separated by commas, semicolons, tabs or
 //! whitespace, whichever the header uses. Later lines starting with `#` or `%` and blank lines
-//! are skipped. Values `NaN`/`nan` are invalid vectors.
+//! are skipped. Values `NaN`/`nan` are invalid vectors. The derived quantities of ebiv's
+//! CSV are read from their columns in image units (`vorticity_1_ms`, `vorticity_1`).
 
 use super::columns::{Column, Role};
 use super::grid::{assemble, Rows};
 use super::FieldReadOptions;
+use crate::derived::{DerivedField, DerivedQuantity};
 use crate::error::{Error, Result};
 use crate::field::{FieldSeries, Quantity, Status, TimeBasis};
 
@@ -222,7 +224,10 @@ pub(super) fn read_str(
             ),
         ));
     }
+    let derived = derived_columns(&columns, unit_u.quantity);
+    let mut derived_factor = 1.0;
     if let (Quantity::Displacement, Some(dt)) = (unit_u.quantity, options.frame_interval_us) {
+        derived_factor = 1000.0 / dt;
         unit_u = VelocityUnit {
             quantity: Quantity::Velocity,
             factor: unit_u.factor / (dt / 1000.0),
@@ -257,7 +262,16 @@ pub(super) fn read_str(
         && i_peak.is_none()
         && i_events.is_none()
         && context_is_truth(&columns);
-    let mut rows = Rows::default();
+    let mut rows = Rows {
+        derived: derived
+            .iter()
+            .map(|&(quantity, _)| DerivedField {
+                quantity,
+                values: Vec::new(),
+            })
+            .collect(),
+        ..Rows::default()
+    };
     let needed = columns.len();
     for (k, line) in text.lines().enumerate().skip(header_line + 1) {
         let trimmed = line.trim();
@@ -350,6 +364,9 @@ pub(super) fn read_str(
             .push(opt(i_uu)?.map_or(f32::NAN, |s| (s * unit_u.factor) as f32));
         rows.v_unc
             .push(opt(i_vu)?.map_or(f32::NAN, |s| (s * unit_u.factor) as f32));
+        for (to, &(_, i)) in rows.derived.iter_mut().zip(&derived) {
+            to.values.push((num(i)? * derived_factor) as f32);
+        }
         rows.line.push(line_no);
     }
     let mut series = assemble(rows, context, basis)?;
@@ -362,6 +379,23 @@ pub(super) fn read_str(
         .attributes
         .push(("source".into(), context.to_string()));
     Ok(series)
+}
+
+/// The columns of the derived quantities in the image units of a table of `quantity`
+/// (`vorticity_1_ms` for velocities, `vorticity_1` for displacements), with their index.
+/// The copies in a calibration's units and frame (`vorticity_1_s`, `vorticity_y_up`) repeat
+/// them and are not read.
+fn derived_columns(columns: &[Column], quantity: Quantity) -> Vec<(DerivedQuantity, usize)> {
+    let unit = DerivedQuantity::unit(quantity, None);
+    DerivedQuantity::ALL
+        .into_iter()
+        .filter_map(|q| {
+            columns
+                .iter()
+                .position(|c| c.role == Role::Derived(q) && c.unit == unit)
+                .map(|i| (q, i))
+        })
+        .collect()
 }
 
 /// A table with exactly ebiv's truth columns (`t_us,x_px,y_px,u_px_ms,v_px_ms`) is a ground
