@@ -13,6 +13,7 @@
 mod codec;
 mod flatbuf;
 mod info;
+mod lz4_block;
 mod lz4_direct;
 mod packets;
 mod table;
@@ -38,6 +39,20 @@ pub(crate) const MAGIC: &[u8; 14] = b"#!AER-DAT4.0\r\n";
 const MAX_HEADER_BYTES: u64 = 16 << 20;
 /// Largest compressed packet accepted; larger sizes are taken as corruption.
 const MAX_PACKET_BYTES: u64 = 256 << 20;
+/// Decompress one LZ4 block with the AEDAT 4.0 reader's block decoder, after `dictionary`
+/// (the content before it, as in a linked frame), into at most `limit` bytes; `None` when the
+/// block is invalid. For the fuzz target `fuzz/fuzz_targets/lz4_block.rs`, which compares it
+/// with lz4_flex; not part of the library's interface.
+#[doc(hidden)]
+pub fn lz4_block_for_fuzzing(block: &[u8], dictionary: &[u8], limit: usize) -> Option<Vec<u8>> {
+    let start = dictionary.len();
+    let mut out = vec![0u8; start + limit + lz4_block::SLACK];
+    out[..start].copy_from_slice(dictionary);
+    let end = lz4_block::decompress(block, &mut out, 0, start, start + limit).ok()?;
+    out.truncate(end);
+    Some(out.split_off(start))
+}
+
 /// Largest decompressed packet body accepted.
 const MAX_BODY_BYTES: usize = 512 << 20;
 /// Skipped packets up to this size are read and dropped instead of seeked over, which keeps

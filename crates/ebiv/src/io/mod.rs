@@ -34,6 +34,8 @@ mod text;
 mod time32;
 pub mod write;
 
+#[doc(hidden)]
+pub use aedat4::lz4_block_for_fuzzing;
 pub use detect::{detect_format, Format};
 pub use memory::open_events;
 pub use options::{parse_geometry, READ_OPTIONS};

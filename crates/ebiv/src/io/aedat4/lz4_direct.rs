@@ -1,11 +1,12 @@
-//! The usual LZ4 frame of an AEDAT 4.0 packet decompressed block by block straight into one
-//! buffer (LZ4 frame format, <https://github.com/lz4/lz4/blob/dev/doc/lz4_Frame_format.md>):
-//! no copy out of a frame decoder's own buffers, and no zeroing of the output for every
-//! packet. Linked blocks find their dictionary, the 64 KiB before them, in the same buffer.
+//! The usual LZ4 frame of an AEDAT 4.0 packet decompressed block by block, by the block
+//! decoder of [`super::lz4_block`], straight into one buffer (LZ4 frame format,
+//! <https://github.com/lz4/lz4/blob/dev/doc/lz4_Frame_format.md>): no copy out of a frame
+//! decoder's own buffers, and no zeroing of the output for every packet. Linked blocks find their dictionary, the 64 KiB before them, in the same buffer.
 //! Frames with checksums over blocks or content, a dictionary, or another magic number are
 //! left to the general frame decoder.
 
 use super::codec::DecodeError;
+use super::lz4_block::{self, SLACK};
 
 const MAGIC: u32 = 0x184D_2204;
 /// Largest back-reference of an LZ4 block: the dictionary of a linked block.
@@ -47,25 +48,21 @@ pub(super) fn decompress_frame(
         }
         let block = input.get(pos..pos + size).ok_or_else(cut_short)?;
         pos += size;
-        if out.len() < len + frame.max_block {
-            out.resize(len + frame.max_block, 0);
+        if out.len() < len + frame.max_block + SLACK {
+            out.resize(len + frame.max_block + SLACK, 0);
         }
         let written = if word & 0x8000_0000 != 0 {
             out[len..len + size].copy_from_slice(block);
             size
         } else {
-            let (before, room) = out.split_at_mut(len);
-            let dictionary = if frame.linked {
-                &before[len.saturating_sub(WINDOW)..]
+            let window_start = if frame.linked {
+                len.saturating_sub(WINDOW)
             } else {
-                &[][..]
+                len
             };
-            lz4_flex::block::decompress_into_with_dict(
-                block,
-                &mut room[..frame.max_block],
-                dictionary,
-            )
-            .map_err(|e| DecodeError::Invalid(format!("LZ4 frame: {e}")))?
+            lz4_block::decompress(block, out, window_start, len, len + frame.max_block)
+                .map_err(|e| DecodeError::Invalid(format!("LZ4 frame: {e}")))?
+                - len
         };
         len += written;
         if len > cap {
