@@ -5,7 +5,8 @@
 //! leading learning interval of the recording — the first `denoise-hot-learn` from its first
 //! event, the whole recording when it is shorter — and removes every event of the pixels
 //! whose count is more than `denoise-hot-factor` times the median count of their 8
-//! neighbours (fewer on the sensor's edge), and at least [`MIN_HOT_PIXEL_EVENTS`].
+//! neighbours (fewer on the sensor's edge), and at least [`MIN_HOT_PIXEL_EVENTS`], and whose
+//! first and last events in the interval lie at least [`MIN_HOT_SPREAD`] of it apart.
 //!
 //! The typical rate is taken locally, the way image sensors find defect pixels against the
 //! median of their neighbourhood, rather than from the whole sensor: in a seeded flow the
@@ -13,6 +14,12 @@
 //! so a sensor-wide mean or an absolute rate either misses hot pixels in a busy scene or
 //! takes busy signal pixels for hot ones; a particle image lights neighbouring pixels
 //! together, a hot pixel alone. The median ignores a second hot pixel next to the first.
+//!
+//! A hot pixel fires all through the interval; a signal pixel fires in bursts, while a
+//! particle image crosses it. In a long recording many crossings spread a busy signal
+//! pixel's events too, but its neighbours are as busy and the rate test keeps it; in a
+//! recording of tens of milliseconds a pixel that one or two particles crossed, alone in a
+//! sparse region, can fire many times its neighbours' median, and the spread test keeps it.
 //!
 //! Learning from a leading interval rather than from a pass over the whole file keeps the
 //! cost independent of the recording's length and lets a run over any part of it (a shard,
@@ -25,12 +32,23 @@ use crate::event::{EventBuffer, Geometry};
 /// high count relative to a sparse scene is chance, not a defect.
 pub const MIN_HOT_PIXEL_EVENTS: u32 = 10;
 
-/// Counts per pixel over the learning interval.
+/// A pixel is hot only if its first and last events in the learning interval lie at least
+/// this fraction of the interval apart (of the recording's span, when that is shorter). Ten
+/// events of a steady rate spread over less than half the interval with probability 1 %.
+pub const MIN_HOT_SPREAD: f64 = 0.5;
+
+/// Counts, and times of the first and last events, per pixel over the learning interval.
 #[derive(Debug, Clone)]
 pub struct HotPixelLearner {
     counts: PixelMap<u32>,
+    /// µs from the interval's start (saturating at `u32::MAX`, 71 minutes).
+    first_us: PixelMap<u32>,
+    last_us: PixelMap<u32>,
+    /// The latest event time in the interval, µs from its start.
+    latest_us: u32,
     learn_us: i64,
-    end_us: Option<i64>,
+    /// The interval `[start, end)`, from the first event.
+    interval: Option<(i64, i64)>,
     done: bool,
 }
 
@@ -39,8 +57,11 @@ impl HotPixelLearner {
     pub fn new(geometry: Geometry, learn_us: i64) -> Self {
         HotPixelLearner {
             counts: PixelMap::new(geometry, 0),
+            first_us: PixelMap::new(geometry, u32::MAX),
+            last_us: PixelMap::new(geometry, 0),
+            latest_us: 0,
             learn_us,
-            end_us: None,
+            interval: None,
             done: false,
         }
     }
@@ -50,16 +71,23 @@ impl HotPixelLearner {
     pub fn add(&mut self, batch: &EventBuffer) -> bool {
         for i in 0..batch.len() {
             let t = batch.t[i];
-            let end = *self
-                .end_us
-                .get_or_insert_with(|| t.saturating_add(self.learn_us));
+            let (start, end) = *self
+                .interval
+                .get_or_insert_with(|| (t, t.saturating_add(self.learn_us)));
             if t >= end {
                 self.done = true;
                 continue;
             }
+            // (An event before the first one, in a file not in time order, counts at 0.)
+            let at = u32::try_from(t.saturating_sub(start).max(0)).unwrap_or(u32::MAX);
+            self.latest_us = self.latest_us.max(at);
             if let Some(k) = self.counts.index(batch.x[i], batch.y[i]) {
                 let c = &mut self.counts.values[k];
                 *c = c.saturating_add(1);
+                let first = &mut self.first_us.values[k];
+                *first = (*first).min(at);
+                let last = &mut self.last_us.values[k];
+                *last = (*last).max(at);
             }
         }
         !self.done
@@ -69,12 +97,15 @@ impl HotPixelLearner {
     pub fn finish(self, factor: f64) -> HotPixelFilter {
         let (w, h) = (self.counts.width, self.counts.height);
         let counts = &self.counts.values;
+        let min_spread = MIN_HOT_SPREAD * f64::from(self.latest_us);
         let mut hot = vec![false; counts.len()];
         let mut around = Vec::with_capacity(8);
         for y in 0..h {
             for x in 0..w {
                 let c = counts[y * w + x];
-                if c < MIN_HOT_PIXEL_EVENTS {
+                let k = y * w + x;
+                let spread = self.last_us.values[k].saturating_sub(self.first_us.values[k]);
+                if c < MIN_HOT_PIXEL_EVENTS || f64::from(spread) < min_spread {
                     continue;
                 }
                 around.clear();

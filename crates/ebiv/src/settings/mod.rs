@@ -149,7 +149,7 @@ settings! {
         denoise_refractory: Duration = Duration(10); "DUR", check positive_duration;
         /// Hot-pixel filter: a pixel is hot when its event count over the learning interval
         /// is more than this many times the median count of its 8 neighbours (and at least
-        /// 10).
+        /// 10, spread over at least half the interval).
         denoise_hot_factor: f64 = 5.0; "FACTOR", check above_one;
         /// Hot-pixel filter: the learning interval, from the first event of the recording
         /// (the whole recording when it is shorter).
