@@ -262,6 +262,35 @@ fn lone_hot_pixels_make_no_valid_vectors_at_rest() {
             "seed {seed}: keeping the hot pixels gives an RMS error of {rms_kept:.4} px/ms, leaving them out {rms:.4}"
         );
     }
+    // Adaptive slabs: the field's slab (the longest, 200 ms) reaches far past these 40 ms of
+    // events, while its windows use short slabs in which a hot pixel fires throughout.
+    let rec = labelled_with_seed(320, 240, "40ms", 0.0005, (0.001, 2000.0), 1);
+    let auto = ("slab", toml::Value::String("auto".into()));
+    let (_, rms, valid) = measure(
+        &rec,
+        &rec.events,
+        "corrsum",
+        "none",
+        std::slice::from_ref(&auto),
+    );
+    let (_, rms_kept, _) = measure(
+        &rec,
+        &rec.events,
+        "corrsum",
+        "none",
+        &[auto, keep[0].clone()],
+    );
+    println!(
+        "adaptive slabs: RMS {rms:.4} px/ms, {valid:.3} valid; hot pixels kept: RMS {rms_kept:.4}"
+    );
+    assert!(
+        rms < 0.05 && valid > 0.3,
+        "adaptive: RMS error {rms:.4} px/ms, {valid:.3} valid"
+    );
+    assert!(
+        rms_kept > 4.0 * rms,
+        "adaptive: kept {rms_kept:.4}, left out {rms:.4}"
+    );
 }
 
 #[test]
@@ -333,6 +362,42 @@ fn table(rec: &Labelled, density: f64) {
                 100.0 * valid
             );
         }
+    }
+}
+
+/// Small images creeping at 0.05 px/ms without any noise: the pixels they enter fire ON all
+/// through a field's slab, one pixel wide; the OFF events of the pixels they leave keep
+/// them from passing for lone hot pixels. Prints the share left out per image diameter.
+#[test]
+fn small_slow_particle_images_are_not_taken_for_hot_pixels() {
+    for diameter in [1.0, 1.5, 2.5] {
+        let text = Scenario::example_text("uniform")
+            .unwrap()
+            .replace("width = 640", "width = 320")
+            .replace("height = 480", "height = 240")
+            .replace("duration = \"20ms\"", "duration = \"40ms\"")
+            .replace("u = 2.0 ", "u = 0.05 ")
+            .replace("diameter = 2.5 ", &format!("diameter = {diameter} "));
+        let scenario = Scenario::from_toml(&text, "test").unwrap();
+        let events = simulate(&scenario);
+        let mut s = ProcessSettings::default();
+        s.set("input", &toml::Value::String("sim".into())).unwrap();
+        let run = s.resolve().unwrap();
+        let geometry = Geometry::new(320, 240);
+        let source = EventSource::memory(Arc::new(events.clone()), Some(geometry), "sim");
+        let m = run.measure(&source, &mut ()).unwrap();
+        let share = m.summary.lone_pixel_events as f64 / events.len() as f64;
+        println!(
+            "{diameter} px images: {} of {} events left out ({:.2} %)",
+            m.summary.lone_pixel_events,
+            events.len(),
+            100.0 * share
+        );
+        assert!(
+            share < 0.01,
+            "{diameter} px: {:.2} % left out",
+            100.0 * share
+        );
     }
 }
 

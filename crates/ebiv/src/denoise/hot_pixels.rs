@@ -23,7 +23,7 @@
 //!
 //! Learning from a leading interval rather than from a pass over the whole file keeps the
 //! cost independent of the recording's length and lets a run over any part of it (a shard,
-//! a late `--time`) decide the same set; memory is one counter per pixel.
+//! a late `--time`) decide the same set; memory is a count and two times per pixel (12 bytes).
 
 use super::PixelMap;
 use crate::event::{EventBuffer, Geometry};

@@ -71,7 +71,8 @@ impl DerivedQuantity {
 
     /// The NPZ array and CSV column of the values as `calibration` writes them, where they
     /// differ from the image values: `vorticity_1_s` for calibrated velocities,
-    /// `vorticity_y_up` for calibrated displacements with y up; `None` otherwise.
+    /// `vorticity_y_up` for calibrated displacements with y up (only the quantities that
+    /// change sign with y: the others would repeat the image values); `None` otherwise.
     pub fn physical_name(
         self,
         quantity: Quantity,
@@ -79,7 +80,9 @@ impl DerivedQuantity {
     ) -> Option<String> {
         match (calibration, quantity) {
             (Some(_), Quantity::Velocity) => Some(format!("{}_1_s", self.name())),
-            (Some(c), Quantity::Displacement) if c.y_up => Some(format!("{}_y_up", self.name())),
+            (Some(c), Quantity::Displacement) if c.y_up && self.odd_in_y() => {
+                Some(format!("{}_y_up", self.name()))
+            }
             _ => None,
         }
     }

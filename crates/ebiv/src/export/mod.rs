@@ -19,7 +19,7 @@ mod csv;
 mod live;
 mod live_view;
 pub(crate) mod netcdf;
-mod npz;
+pub(crate) mod npz;
 mod statistics;
 mod tecplot;
 mod tracks;

@@ -166,7 +166,7 @@ impl ProcessParams {
             self.tile_size(),
         );
         if self.drop_lone_pixels {
-            slab.drop_lone_pixels();
+            slab.drop_lone_pixels((&events.t, &events.x, &events.y));
         }
         slab
     }

@@ -1,7 +1,8 @@
 //! The usual LZ4 frame of an AEDAT 4.0 packet decompressed block by block, by the block
 //! decoder of [`super::lz4_block`], straight into one buffer (LZ4 frame format,
 //! <https://github.com/lz4/lz4/blob/dev/doc/lz4_Frame_format.md>): no copy out of a frame
-//! decoder's own buffers, and no zeroing of the output for every packet. Linked blocks find their dictionary, the 64 KiB before them, in the same buffer.
+//! decoder's own buffers, and no zeroing of the output for every packet. Linked blocks find
+//! their dictionary, the 64 KiB before them, in the same buffer.
 //! Frames with checksums over blocks or content, a dictionary, or another magic number are
 //! left to the general frame decoder.
 

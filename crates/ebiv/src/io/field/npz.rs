@@ -54,6 +54,25 @@ impl Archive {
         self.zip.index_for_name(&format!("{name}.npy")).is_some()
     }
 
+    /// The number of values of array `name` from its header alone, `None` when the archive
+    /// has none.
+    fn values_in(&mut self, name: &str) -> Result<Option<u64>> {
+        let member_name = format!("{name}.npy");
+        let context = format!("{}: {member_name}", self.context);
+        let Some(index) = self.zip.index_for_name(&member_name) else {
+            return Ok(None);
+        };
+        let mut member = self
+            .zip
+            .by_index(index)
+            .map_err(|e| Error::unsupported(context.clone(), e.to_string()))?;
+        let header = read_header(&mut member, &context)?;
+        header
+            .count()
+            .map(Some)
+            .ok_or_else(|| Error::unsupported(context, "the array is too large"))
+    }
+
     /// The array `name`, `None` when the archive has none.
     fn array(&mut self, name: &str) -> Result<Option<Array>> {
         let member_name = format!("{name}.npy");
@@ -248,6 +267,22 @@ pub(super) fn read(path: &Path, options: &FieldReadOptions) -> Result<FieldSerie
     } else {
         vec![0]
     };
+    // The grid must match `u` before arrays of its size are made: a foreign layout of
+    // flattened columns would otherwise ask for len(x)·len(y) nodes per time.
+    let nodes = (xs.len() as u64)
+        .checked_mul(ys.len() as u64)
+        .and_then(|n| n.checked_mul(times.len() as u64));
+    let in_u = a.values_in("u")?.unwrap_or(0);
+    if nodes != Some(in_u) {
+        return Err(a.err(format!(
+            "`u` holds {in_u} values, but `x`, `y` and `t_us` make a grid of {} × {} × {} \
+             nodes: ebiv's NPZ layout stores `u`, `v` as (time, row, column) arrays on the \
+             axes `x`, `y`",
+            xs.len(),
+            ys.len(),
+            times.len()
+        )));
+    }
     let mut s = FieldSeries::new(xs, ys, times);
     let n = s.u.len();
     let quantity = match attribute("velocity_units") {

@@ -230,3 +230,27 @@ fn missing_and_unreadable_files() {
     };
     assert!(read_field(&missing, &bad).is_err());
 }
+
+#[test]
+fn an_npz_of_flattened_columns_is_refused_before_its_grid_is_made() {
+    // 100 000 vectors as flat columns: read as ebiv's axes, x and y would make a grid of
+    // 10¹⁰ nodes. The shape of `u` is checked first.
+    use std::io::Write;
+    use zip::write::SimpleFileOptions;
+    let n = 100_000;
+    let column: Vec<f64> = (0..n).map(|i| i as f64).collect();
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("flat.npz");
+    let mut zip = zip::ZipWriter::new(std::fs::File::create(&path).unwrap());
+    for name in ["x", "y", "u", "v"] {
+        zip.start_file(format!("{name}.npy"), SimpleFileOptions::default())
+            .unwrap();
+        zip.write_all(&crate::export::npz::npy(&column, &[n]))
+            .unwrap();
+    }
+    zip.finish().unwrap();
+    let e = read_field(&path, &FieldReadOptions::default())
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("flat.npz") && e.contains("100000 values"), "{e}");
+}
