@@ -126,5 +126,21 @@ pub fn read_field_str(
     table::read_str(text, context, options)
 }
 
+/// The status of fields read without one (a ground truth, another tool's file): valid
+/// where both components are finite, [`crate::field::Status::NO_EVENTS`] elsewhere.
+fn status_from_values(u: &[f32], v: &[f32]) -> Vec<crate::field::Status> {
+    use crate::field::Status;
+    u.iter()
+        .zip(v)
+        .map(|(u, v)| {
+            if u.is_finite() && v.is_finite() {
+                Status::VALID
+            } else {
+                Status::NO_EVENTS
+            }
+        })
+        .collect()
+}
+
 #[cfg(test)]
 mod tests;

@@ -211,17 +211,7 @@ pub(super) fn read(path: &Path, options: &FieldReadOptions) -> Result<FieldSerie
         }
     } else {
         s.ground_truth = true;
-        s.status =
-            s.u.iter()
-                .zip(&s.v)
-                .map(|(u, v)| {
-                    if u.is_finite() && v.is_finite() {
-                        Status::VALID
-                    } else {
-                        Status::NO_EVENTS
-                    }
-                })
-                .collect();
+        s.status = super::status_from_values(&s.u, &s.v);
     }
     let counts = |v: Vec<f64>| -> Vec<u32> {
         v.iter()

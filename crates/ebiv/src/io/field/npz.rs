@@ -40,8 +40,10 @@ struct Array {
     data: Vec<u8>,
 }
 
+type Reader = std::io::BufReader<std::fs::File>;
+
 struct Archive {
-    zip: zip::ZipArchive<std::io::BufReader<std::fs::File>>,
+    zip: zip::ZipArchive<Reader>,
     context: String,
 }
 
@@ -54,18 +56,27 @@ impl Archive {
         self.zip.index_for_name(&format!("{name}.npy")).is_some()
     }
 
-    /// The number of values of array `name` from its header alone, `None` when the archive
-    /// has none.
-    fn values_in(&mut self, name: &str) -> Result<Option<u64>> {
+    /// The member of array `name` and its name for messages; `None` when the archive has
+    /// none.
+    fn member(&mut self, name: &str) -> Result<Option<(zip::read::ZipFile<'_, Reader>, String)>> {
         let member_name = format!("{name}.npy");
         let context = format!("{}: {member_name}", self.context);
         let Some(index) = self.zip.index_for_name(&member_name) else {
             return Ok(None);
         };
-        let mut member = self
+        let member = self
             .zip
             .by_index(index)
             .map_err(|e| Error::unsupported(context.clone(), e.to_string()))?;
+        Ok(Some((member, context)))
+    }
+
+    /// The number of values of array `name` from its header alone, `None` when the archive
+    /// has none.
+    fn values_in(&mut self, name: &str) -> Result<Option<u64>> {
+        let Some((mut member, context)) = self.member(name)? else {
+            return Ok(None);
+        };
         let header = read_header(&mut member, &context)?;
         header
             .count()
@@ -75,15 +86,9 @@ impl Archive {
 
     /// The array `name`, `None` when the archive has none.
     fn array(&mut self, name: &str) -> Result<Option<Array>> {
-        let member_name = format!("{name}.npy");
-        let context = format!("{}: {member_name}", self.context);
-        let Some(index) = self.zip.index_for_name(&member_name) else {
+        let Some((mut member, context)) = self.member(name)? else {
             return Ok(None);
         };
-        let mut member = self
-            .zip
-            .by_index(index)
-            .map_err(|e| Error::unsupported(context.clone(), e.to_string()))?;
         if member.size() > MAX_MEMBER_BYTES {
             return Err(Error::unsupported(
                 context,
@@ -332,19 +337,7 @@ pub(super) fn read(path: &Path, options: &FieldReadOptions) -> Result<FieldSerie
                 })
                 .collect::<Result<_>>()?;
         }
-        None => {
-            s.status =
-                s.u.iter()
-                    .zip(&s.v)
-                    .map(|(u, v)| {
-                        if u.is_finite() && v.is_finite() {
-                            Status::VALID
-                        } else {
-                            Status::NO_EVENTS
-                        }
-                    })
-                    .collect();
-        }
+        None => s.status = super::status_from_values(&s.u, &s.v),
     }
     if let Some(v) = a.f32s("peak", n)? {
         s.peak = v;
