@@ -367,7 +367,10 @@ fn table(rec: &Labelled, density: f64) {
 
 /// Small images creeping at 0.05 px/ms without any noise: the pixels they enter fire ON all
 /// through a field's slab, one pixel wide; the OFF events of the pixels they leave keep
-/// them from passing for lone hot pixels. Prints the share left out per image diameter.
+/// most of them from passing for lone hot pixels. Prints the share left out per image
+/// diameter: about 1 % for 1 px images, the price of a neighbour limit that also catches
+/// hot pixels in adaptive slabs (`volume/lone_pixels.rs`, `NEIGHBOUR_MAX`); 2 % bounds it
+/// (a limit of a quarter of the sub-intervals left out about 5 %).
 #[test]
 fn small_slow_particle_images_are_not_taken_for_hot_pixels() {
     for diameter in [1.0, 1.5, 2.5] {
@@ -394,7 +397,7 @@ fn small_slow_particle_images_are_not_taken_for_hot_pixels() {
             100.0 * share
         );
         assert!(
-            share < 0.01,
+            share < 0.02,
             "{diameter} px: {:.2} % left out",
             100.0 * share
         );
