@@ -142,5 +142,19 @@ fn status_from_values(u: &[f32], v: &[f32]) -> Vec<crate::field::Status> {
         .collect()
 }
 
+/// Event counts and slab lengths stored as numbers: non-negative whole counts, 0 for what
+/// is not a finite positive number, at most `u32::MAX`.
+fn counts_from_values(v: Vec<f64>) -> Vec<u32> {
+    v.iter()
+        .map(|&c| {
+            if c.is_finite() && c > 0.0 {
+                c.min(u32::MAX as f64) as u32
+            } else {
+                0
+            }
+        })
+        .collect()
+}
+
 #[cfg(test)]
 mod tests;

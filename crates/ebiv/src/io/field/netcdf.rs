@@ -213,17 +213,7 @@ pub(super) fn read(path: &Path, options: &FieldReadOptions) -> Result<FieldSerie
         s.ground_truth = true;
         s.status = super::status_from_values(&s.u, &s.v);
     }
-    let counts = |v: Vec<f64>| -> Vec<u32> {
-        v.iter()
-            .map(|&c| {
-                if c.is_finite() && c > 0.0 {
-                    c.min(u32::MAX as f64) as u32
-                } else {
-                    0
-                }
-            })
-            .collect()
-    };
+    let counts = super::counts_from_values;
     if has(&r, "peak") {
         s.peak = to_f32(read_len(&mut r, "peak")?, 1.0);
     }

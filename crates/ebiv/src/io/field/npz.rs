@@ -345,17 +345,7 @@ pub(super) fn read(path: &Path, options: &FieldReadOptions) -> Result<FieldSerie
     if let Some(v) = a.f32s("peak_ratio", n)? {
         s.peak_ratio = v;
     }
-    let counts = |v: Vec<f64>| -> Vec<u32> {
-        v.iter()
-            .map(|&c| {
-                if c.is_finite() && c > 0.0 {
-                    c.min(u32::MAX as f64) as u32
-                } else {
-                    0
-                }
-            })
-            .collect()
-    };
+    let counts = super::counts_from_values;
     if let Some(v) = a.f64s("event_count", n)? {
         s.event_count = counts(v);
     }
